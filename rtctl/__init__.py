@@ -1,0 +1,1 @@
+"""rtctl: a real-time control runtime for robot joints."""

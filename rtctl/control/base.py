@@ -1,0 +1,38 @@
+"""The Controller protocol (DESIGN §4).
+
+A controller owns the commands of some joints (one owner per joint, checked at start) and
+runs every ``divisor``-th tick. ``update`` writes into the preallocated command arrays it is
+given and allocates nothing; what it wants recorded it exposes through ``internals``
+(name → preallocated array), which telemetry copies every tick.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from rtctl.hal.joints import JointCommand, JointState
+
+
+class Reference:
+    """Desired joint motion for this tick: position, velocity, acceleration (preallocated)."""
+
+    def __init__(self, n: int):
+        self.q = np.zeros(n)
+        self.qd = np.zeros(n)
+        self.qdd = np.zeros(n)
+
+
+class Controller:
+    """Base class; subclasses implement :meth:`update` and usually :meth:`reset`."""
+
+    def __init__(self, name: str, model, joints=None, divisor: int = 1):
+        self.name = name
+        self.model = model
+        self.joints = np.arange(model.nq) if joints is None else np.asarray(joints, dtype=np.int64)
+        self.divisor = divisor
+        self.internals: dict[str, np.ndarray] = {}
+
+    def reset(self, state: JointState) -> None:
+        """Forget history (integrators, estimates) before (re)starting from ``state``."""
+
+    def update(self, t: float, state: JointState, ref: Reference, command: JointCommand) -> None:
+        raise NotImplementedError

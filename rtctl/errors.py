@@ -1,0 +1,56 @@
+"""One error tree for the whole project (like python-can's ``CanError`` family).
+
+Everything rtctl, its drivers and the simulator raise on purpose derives from
+:class:`RtctlError`, so a caller can catch the family and the CLI can turn it into a
+clear message and an exit code instead of a traceback.
+"""
+
+
+class RtctlError(Exception):
+    """Base of every error rtctl raises on purpose."""
+
+
+class ModelError(RtctlError):
+    """A robot description is malformed or inconsistent (DH table, URDF, parameters)."""
+
+
+class KinematicsError(RtctlError):
+    """A kinematic query has no answer (unreachable pose, IK did not converge)."""
+
+
+class ConfigError(RtctlError):
+    """A configuration file is invalid; names the file, the key path and what was expected."""
+
+    def __init__(self, file, key_path: str, expected: str):
+        self.file = str(file)
+        self.key_path = key_path
+        self.expected = expected
+        super().__init__(f"{self.file}: {key_path}: {expected}")
+
+
+class HardwareError(RtctlError):
+    """A device or its link failed (open, configure, read, write)."""
+
+
+class DriverNotFoundError(HardwareError):
+    """No driver is registered under the name the configuration asks for."""
+
+
+class ProtocolError(HardwareError):
+    """Bytes on a wire do not decode (wrong length, unknown id, corrupt frame)."""
+
+
+class BusLoadError(ConfigError):
+    """A bus would be loaded beyond its configured limit at the configured rate."""
+
+
+class SafetyError(RtctlError):
+    """The safety stage stopped the robot (limit, watchdog, non-finite output, e-stop)."""
+
+
+class RealtimeError(RtctlError):
+    """A real-time knob that ``--enforce-rt`` requires could not be applied."""
+
+
+class ControlSocketError(RtctlError):
+    """The control socket is unreachable or answered with an error."""

@@ -1,0 +1,84 @@
+"""The hardware lifecycle, after ros2_control's: configure → activate → read/write →
+deactivate → close.
+
+Subclasses implement the ``_on_*`` hooks (python-can's ``_internal`` style); the public
+methods enforce the order, make every transition safe to call twice, and turn an exception
+from ``read``/``write`` into ``Status.ERROR`` so nothing raises into the loop.
+"""
+from __future__ import annotations
+
+import enum
+
+from rtctl.errors import HardwareError
+
+
+class Status(enum.IntEnum):
+    OK = 0
+    ERROR = 1  # the device failed this tick: the loop engages the fallback
+    DEACTIVATE = 2  # the device asks to be deactivated (e.g. its own e-stop)
+
+
+class Lifecycle(enum.Enum):
+    UNCONFIGURED = "unconfigured"
+    INACTIVE = "inactive"  # link open, states readable
+    ACTIVE = "active"  # commands accepted
+    CLOSED = "closed"
+
+
+class Hardware:
+    """Base of every device. ``name`` comes from the configuration."""
+
+    def __init__(self, name: str):
+        self.name = name
+        self.lifecycle = Lifecycle.UNCONFIGURED
+        self.last_error: str | None = None
+
+    # -- lifecycle -------------------------------------------------------------------
+    def configure(self) -> None:
+        if self.lifecycle is Lifecycle.UNCONFIGURED:
+            self._on_configure()
+            self.lifecycle = Lifecycle.INACTIVE
+        elif self.lifecycle is Lifecycle.CLOSED:
+            raise HardwareError(f"{self.name}: configure() after close()")
+
+    def activate(self) -> None:
+        self.configure()
+        if self.lifecycle is Lifecycle.INACTIVE:
+            self._on_activate()
+            self.lifecycle = Lifecycle.ACTIVE
+
+    def deactivate(self) -> None:
+        """Stop accepting commands and leave the actuators safe (motors off). Never raises."""
+        if self.lifecycle is Lifecycle.ACTIVE:
+            self.lifecycle = Lifecycle.INACTIVE
+            try:
+                self._on_deactivate()
+            except Exception as e:  # a deactivation must not stop the others
+                self.last_error = f"deactivate: {e}"
+
+    def close(self) -> None:
+        """Deactivate if needed and release the link. Never raises."""
+        self.deactivate()
+        if self.lifecycle is Lifecycle.INACTIVE:
+            try:
+                self._on_close()
+            except Exception as e:
+                self.last_error = f"close: {e}"
+        self.lifecycle = Lifecycle.CLOSED
+
+    # -- hooks for implementations ---------------------------------------------------
+    def _on_configure(self) -> None:
+        """Open the link; after this, states are readable."""
+
+    def _on_activate(self) -> None:
+        """Start accepting commands (enable the drives)."""
+
+    def _on_deactivate(self) -> None:
+        """Stop the actuators (disable the drives)."""
+
+    def _on_close(self) -> None:
+        """Release the link."""
+
+    def diagnostics(self) -> dict:
+        """Counters and facts for status and the run summary."""
+        return {"lifecycle": self.lifecycle.value, "last_error": self.last_error}

@@ -1,0 +1,130 @@
+"""Typed, path-aware access to a parsed TOML table.
+
+Every loader (robot descriptions, run configurations) reads through :class:`Table`, so each
+error names the file, the dotted key path and what was expected, and unknown keys are
+refused instead of silently ignored (a typo in ``kp`` must not run the robot with a default).
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from rtctl.errors import ConfigError
+
+_MISSING = object()
+
+
+def load_toml(path) -> "Table":
+    path = Path(path)
+    try:
+        with path.open("rb") as f:
+            data = tomllib.load(f)
+    except FileNotFoundError:
+        raise ConfigError(path, "<file>", "an existing TOML file") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(path, "<syntax>", f"valid TOML ({e})") from None
+    return Table(data, path, "")
+
+
+class Table:
+    """A TOML table plus where it came from; reading a key marks it as known."""
+
+    def __init__(self, data: dict, file, path: str):
+        self.data, self.file, self.path = data, Path(file), path
+        self._seen: set[str] = set()
+
+    def key(self, name: str) -> str:
+        return f"{self.path}.{name}" if self.path else name
+
+    def error(self, name: str, expected: str) -> ConfigError:
+        return ConfigError(self.file, self.key(name), expected)
+
+    def has(self, name: str) -> bool:
+        return name in self.data
+
+    def _get(self, name, default, expected):
+        self._seen.add(name)
+        if name in self.data:
+            return self.data[name]
+        if default is _MISSING:
+            raise self.error(name, f"missing; expected {expected}")
+        return default
+
+    def str(self, name, default=_MISSING, choices=None) -> str:
+        expected = f"one of {', '.join(map(repr, choices))}" if choices else "a string"
+        value = self._get(name, default, expected)
+        if value is default and default is not _MISSING:
+            return value
+        if not isinstance(value, str) or (choices and value not in choices):
+            raise self.error(name, f"{expected}, got {value!r}")
+        return value
+
+    def bool(self, name, default=_MISSING) -> bool:
+        value = self._get(name, default, "true or false")
+        if not isinstance(value, bool):
+            raise self.error(name, f"true or false, got {value!r}")
+        return value
+
+    def float(self, name, default=_MISSING, *, min=None, max=None, positive=False) -> float:
+        value = self._get(name, default, "a number")
+        if value is None and default is None:
+            return None
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise self.error(name, f"a finite number, got {value!r}")
+        self._check_range(name, value, min, max, positive)
+        return float(value)
+
+    def int(self, name, default=_MISSING, *, min=None, max=None) -> int:
+        value = self._get(name, default, "an integer")
+        if value is None and default is None:
+            return None
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.error(name, f"an integer, got {value!r}")
+        self._check_range(name, value, min, max, False)
+        return value
+
+    def _check_range(self, name, value, lo, hi, positive):
+        if positive and not value > 0:
+            raise self.error(name, f"a positive number, got {value!r}")
+        if lo is not None and value < lo:
+            raise self.error(name, f"a number ≥ {lo}, got {value!r}")
+        if hi is not None and value > hi:
+            raise self.error(name, f"a number ≤ {hi}, got {value!r}")
+
+    def vector(self, name, length=None, default=_MISSING) -> np.ndarray:
+        expected = f"an array of {length} numbers" if length else "an array of numbers"
+        value = self._get(name, default, expected)
+        if value is None and default is None:
+            return None
+        ok = isinstance(value, list) and all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in value
+        )
+        if not ok or (length is not None and len(value) != length):
+            raise self.error(name, f"{expected}, got {value!r}")
+        return np.array(value, dtype=float)
+
+    def table(self, name, default=_MISSING) -> "Table":
+        value = self._get(name, default, "a table")
+        if value is None and default is None:
+            return None
+        if not isinstance(value, dict):
+            raise self.error(name, f"a table, got {value!r}")
+        return Table(value, self.file, self.key(name))
+
+    def tables(self, name, default=_MISSING) -> list["Table"]:
+        value = self._get(name, default, "an array of tables")
+        if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+            raise self.error(name, f"an array of tables ([[{self.key(name)}]]), got {value!r}")
+        return [Table(v, self.file, f"{self.key(name)}[{i}]") for i, v in enumerate(value)]
+
+    def raw(self, name, default=_MISSING):
+        return self._get(name, default, "a value")
+
+    def done(self) -> None:
+        """Refuse keys nobody read: they are typos or settings this version does not know."""
+        unknown = sorted(set(self.data) - self._seen)
+        if unknown:
+            raise self.error(unknown[0], f"unknown key (known here: {', '.join(sorted(self._seen)) or 'none'})")
