@@ -29,7 +29,13 @@ class Controller:
         self.model = model
         self.joints = np.arange(model.nq) if joints is None else np.asarray(joints, dtype=np.int64)
         self.divisor = divisor
+        self.mask = np.zeros(model.nq, dtype=bool)  # the joint commands this controller owns
+        self.mask[self.joints] = True
         self.internals: dict[str, np.ndarray] = {}
+
+    def emit(self, tau_out: np.ndarray, tau: np.ndarray) -> None:
+        """Copy the owned joints' torques into the command, without allocating."""
+        np.copyto(tau_out, tau, where=self.mask)
 
     def reset(self, state: JointState) -> None:
         """Forget history (integrators, estimates) before (re)starting from ``state``."""

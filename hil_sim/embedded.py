@@ -1,0 +1,125 @@
+"""The embedded simulator: a simulated JointGroup stepped inside the tick, in lock-step.
+
+Registered as the driver ``sim`` in the entry-point group ``rtctl.drivers``. One
+:class:`~hil_sim.plant.Plant` plays the whole robot; each simulated device serves some of its
+joints. Within a tick the loop ``write()``s every device; when the last one has written, the
+plant advances one period, so the next ``read()`` sees the state one period later — the
+same causality as a real drive that answers each command with a fresh measurement.
+
+Options (the run configuration's ``[sim]`` table)::
+
+    substeps = 4                 # integrator substeps per period
+    friction = 1.0               # scale of the robot file's viscous + Coulomb friction
+    armature = true              # reflected rotor inertia from the robot file
+    plant = "robots/x.toml"      # another description as the true plant (default: the robot)
+    params_scale = 1.0           # scale the true plant's inertial parameters
+    initial_q = [..]             # start position (rad/m; default: mid-range clipped to 0)
+    encoder_counts = 0           # counts per revolution for position quantisation (0 = ideal)
+    velocity_noise = 0.0         # std of white noise on measured velocity (rad/s)
+    seed = 1
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from rtctl.hal import JointGroup, Status
+from rtctl.hal.lifecycle import Lifecycle
+from rtctl.model import load_robot
+from hil_sim.plant import Plant
+
+
+class SimPlantHub:
+    """The plant shared by the simulated devices of one run, and its lock-step counter."""
+
+    def __init__(self, plant: Plant, period: float):
+        self.plant = plant
+        self.period = period
+        self.devices: list["SimJointGroup"] = []
+        self._written = 0
+
+    def written(self) -> None:
+        self._written += 1
+        if self._written >= sum(d.lifecycle is Lifecycle.ACTIVE for d in self.devices):
+            self._written = 0
+            self.plant.step(self.period)
+
+    @classmethod
+    def from_options(cls, sim, model, period: float, base_dir) -> "SimPlantHub":
+        plant_file = sim.str("plant", "")
+        true_model = load_robot(base_dir / plant_file) if plant_file else model
+        if true_model.nq != model.nq:
+            raise sim.error("plant", f"a robot with {model.nq} joints like {model.name}")
+        scale = sim.float("params_scale", 1.0, positive=True)
+        if scale != 1.0:
+            true_model = true_model.with_params(true_model.params * scale)
+        q0 = sim.vector("initial_q", model.nq, None)
+        if q0 is None:
+            q0 = np.clip(np.zeros(model.nq), model.q_min, model.q_max)
+        plant = Plant(true_model, substeps=sim.int("substeps", 4, min=1, max=1000),
+                      friction_scale=sim.float("friction", 1.0, min=0.0),
+                      armature=sim.bool("armature", True), q0=q0)
+        hub = cls(plant, period)
+        hub.encoder_counts = sim.int("encoder_counts", 0, min=0)
+        hub.velocity_noise = sim.float("velocity_noise", 0.0, min=0.0)
+        hub.rng = np.random.default_rng(sim.int("seed", 1))
+        sim.done()
+        return hub
+
+
+class SimJointGroup(JointGroup):
+    """Simulated joints: torque or MIT-style impedance commands in, measured state out."""
+
+    def __init__(self, name: str, joint_names, joints, hub: SimPlantHub):
+        super().__init__(name, joint_names)
+        self.hub = hub
+        self.idx = np.asarray(joints, dtype=np.int64)
+        self._noise = np.zeros(len(self.idx))
+        self._tau = np.zeros(len(self.idx))
+        self._tmp = np.zeros(len(self.idx))
+        self.quantum = 2 * np.pi / hub.encoder_counts if hub.encoder_counts else 0.0
+        hub.devices.append(self)
+
+    @classmethod
+    def from_config(cls, device, context) -> "SimJointGroup":
+        """``device``: rtctl.config.DeviceConfig; ``context``: rtctl.daemon.DeviceContext."""
+        hub = context.shared.get("sim_hub")
+        if hub is None:
+            hub = SimPlantHub.from_options(context.sim, context.model, context.period, context.base_dir)
+            context.shared["sim_hub"] = hub
+        device.options.done()
+        names = [context.model.joint_names[j] for j in device.joints]
+        return cls(device.name, names, device.joints, hub)
+
+    def _on_deactivate(self) -> None:
+        np.put(self.hub.plant.tau_cmd, self.idx, 0.0)  # motors off
+
+    def _read(self, t: float) -> Status:
+        plant, s = self.hub.plant, self.state
+        np.take(plant.q, self.idx, out=s.position)
+        np.take(plant.qd, self.idx, out=s.velocity)
+        np.take(plant.tau_applied, self.idx, out=s.effort)
+        if self.quantum:
+            np.divide(s.position, self.quantum, out=s.position)
+            np.floor(s.position, out=s.position)
+            np.multiply(s.position, self.quantum, out=s.position)
+        if self.hub.velocity_noise:
+            self.hub.rng.standard_normal(out=self._noise)
+            self._noise *= self.hub.velocity_noise
+            s.velocity += self._noise
+        s.stamp = plant.time
+        return Status.OK
+
+    def _write(self, t: float) -> Status:
+        c, s, tau = self.command, self.state, self._tau
+        if c.mode:  # impedance, closed here as a drive would: kp (q_des − q) + kd (q̇_des − q̇) + τ_ff
+            np.subtract(c.q_des, s.position, out=tau)
+            tau *= c.kp
+            tau += c.tau_ff
+            np.subtract(c.qd_des, s.velocity, out=self._tmp)
+            self._tmp *= c.kd
+            tau += self._tmp
+        else:
+            tau[:] = c.tau_ff
+        np.put(self.hub.plant.tau_cmd, self.idx, tau)
+        self.hub.written()
+        return Status.OK

@@ -1,0 +1,283 @@
+"""Run configuration: TOML → validated, frozen dataclasses (DESIGN §5).
+
+Everything is checked before any device is touched; every error names the file, the key
+path and what was expected (:class:`rtctl.errors.ConfigError`, exit code 2 from the CLI).
+Sections whose keys belong to a plug-in (a driver's options, a controller's gains) are kept
+as :class:`~rtctl.tomltable.Table` here and validated by that plug-in's ``from_config`` —
+still before anything is opened (see :mod:`rtctl.daemon`).
+
+Layout of a run configuration (paths are relative to the file)::
+
+    [robot]       description = "robots/puma560.toml"    # D-H TOML or URDF
+    [loop]        rate_hz, overrun_limit, spin_us, realtime_factor;  [loop.rt] knobs
+    [sim]         present → joint devices are the embedded simulator (see hil_sim.embedded)
+    [[devices]]   name, driver (entry point in rtctl.drivers), joints, driver options …
+    [[controllers]] name, type, joints, divisor, gains …
+    [trajectory]  unit, waypoints, smooth, dwell, velocity/acceleration limits
+    [safety]      fallback, damping, stale_ticks, position_margin, estop_off_delay
+    [telemetry]   path, batch_rows
+    [control]     socket
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from rtctl.errors import ConfigError, RtctlError
+from rtctl.model import Model, load_robot
+from rtctl.tomltable import Table, load_toml
+
+
+@dataclass(frozen=True)
+class RtSettings:
+    priority: int = 0  # SCHED_FIFO priority, 0 = leave the scheduler alone
+    cpus: tuple[int, ...] = ()  # CPU affinity, empty = leave
+    mlockall: bool = False
+    timer_slack_ns: int = 0  # 0 = leave
+    gc_freeze: bool = True
+
+
+@dataclass(frozen=True)
+class LoopConfig:
+    rate_hz: float = 1000.0
+    overrun_limit: int = 50  # consecutive overruns → controlled safe stop
+    spin_us: float = 200.0  # sleep until deadline − spin, then spin
+    realtime_factor: float = 1.0  # 0 = as fast as possible (simulated devices only)
+    rt: RtSettings = field(default_factory=RtSettings)
+
+    @property
+    def period(self) -> float:
+        return 1.0 / self.rate_hz
+
+
+@dataclass(frozen=True)
+class DeviceConfig:
+    name: str
+    driver: str
+    joints: tuple[int, ...]  # indices into the robot's joints
+    options: Table  # driver-specific keys, validated by the driver
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    name: str
+    type: str
+    joints: tuple[int, ...]
+    divisor: int
+    options: Table  # controller-specific keys, validated by the controller
+
+
+@dataclass(frozen=True)
+class TrajectoryConfig:
+    waypoints: np.ndarray  # (k, n) radians / metres
+    smooth: bool = True
+    dwell: float = 0.0
+    velocity_scale: float = 0.5  # fraction of the robot's velocity limits
+    max_acceleration: np.ndarray | None = None
+    repeat: bool = False
+
+
+@dataclass(frozen=True)
+class SafetyConfig:
+    fallback: str = "hold"
+    damping: float = 5.0  # N·m·s/rad for the fallback
+    hold_stiffness: float = 50.0  # N·m/rad for "hold"
+    stale_ticks: int = 3
+    position_margin: float = 0.0  # rad inside the joint limits
+    estop_off_delay: float = 0.2  # s of controlled stop before drives are disabled
+    options: Table | None = None
+
+
+@dataclass(frozen=True)
+class Config:
+    file: Path
+    robot_file: Path
+    model: Model
+    loop: LoopConfig
+    devices: tuple[DeviceConfig, ...]
+    controllers: tuple[ControllerConfig, ...]
+    trajectory: TrajectoryConfig | None
+    safety: SafetyConfig
+    sim: Table | None
+    telemetry_path: Path | None
+    telemetry_batch: int
+    socket_path: Path
+
+
+def default_socket_path() -> Path:
+    runtime = os.environ.get("XDG_RUNTIME_DIR")
+    return Path(runtime, "rtctl.sock") if runtime else Path(f"/tmp/rtctl-{os.getuid()}.sock")
+
+
+def load_config(path, *, sim: bool = False) -> Config:
+    """Parse and validate a run configuration; ``sim`` forces the embedded simulator."""
+    path = Path(path)
+    t = load_toml(path)
+    base = path.parent
+
+    robot_t = t.table("robot")
+    robot_file = (base / robot_t.str("description")).resolve()
+    try:
+        model = load_robot(robot_file)
+    except ConfigError:
+        raise
+    except RtctlError as e:
+        raise robot_t.error("description", f"a valid robot description ({e})") from None
+    robot_t.done()
+
+    loop = _loop(t.table("loop", None))
+    sim_t = t.table("sim", None)
+    if sim and sim_t is None:
+        sim_t = Table({}, path, "sim")
+    devices = _devices(t, model, sim_t is not None)
+    controllers = _controllers(t, model)
+    _check_owners(t, controllers)
+    trajectory = _trajectory(t.table("trajectory", None), model)
+    safety = _safety(t.table("safety", None))
+    tele = t.table("telemetry", None)
+    telemetry_path, batch = None, 500
+    if tele is not None:
+        p = tele.str("path", "")
+        telemetry_path = (base / p).resolve() if p else None
+        batch = tele.int("batch_rows", 500, min=1, max=100_000)
+        tele.done()
+    control = t.table("control", None)
+    socket_path = default_socket_path()
+    if control is not None:
+        socket_path = Path(control.str("socket", str(socket_path)))
+        control.done()
+    if loop.realtime_factor != 1.0 and sim_t is None:
+        raise t.error("loop.realtime_factor", "1.0 unless the devices are simulated ([sim] or --sim)")
+    t.done()
+    return Config(path, robot_file, model, loop, devices, controllers, trajectory, safety, sim_t,
+                  telemetry_path, batch, socket_path)
+
+
+def _loop(t: Table | None) -> LoopConfig:
+    if t is None:
+        return LoopConfig()
+    rt_t = t.table("rt", None)
+    rt = RtSettings()
+    if rt_t is not None:
+        cpus = rt_t.raw("cpus", [])
+        if not isinstance(cpus, list) or not all(isinstance(c, int) and c >= 0 for c in cpus):
+            raise rt_t.error("cpus", f"an array of CPU numbers, got {cpus!r}")
+        rt = RtSettings(priority=rt_t.int("priority", 0, min=0, max=99), cpus=tuple(cpus),
+                        mlockall=rt_t.bool("mlockall", False),
+                        timer_slack_ns=rt_t.int("timer_slack_ns", 0, min=0),
+                        gc_freeze=rt_t.bool("gc_freeze", True))
+        rt_t.done()
+    cfg = LoopConfig(
+        rate_hz=t.float("rate_hz", 1000.0, positive=True, max=100_000.0),
+        overrun_limit=t.int("overrun_limit", 50, min=1),
+        spin_us=t.float("spin_us", 200.0, min=0.0),
+        realtime_factor=t.float("realtime_factor", 1.0, min=0.0, max=1000.0),
+        rt=rt,
+    )
+    t.done()
+    return cfg
+
+
+def joint_indices(t: Table, key: str, model: Model) -> tuple[int, ...]:
+    """Joint names under ``key`` (default: all joints) → indices into the model."""
+    names = t.raw(key, None)
+    if names is None:
+        return tuple(range(model.nq))
+    if not isinstance(names, list) or not names or not all(isinstance(x, str) for x in names):
+        raise t.error(key, "a non-empty array of joint names")
+    unknown = [x for x in names if x not in model.joint_names]
+    if unknown:
+        raise t.error(key, f"joint names of {model.name} ({', '.join(model.joint_names)}); unknown: {unknown[0]!r}")
+    if len(set(names)) != len(names):
+        raise t.error(key, "each joint at most once")
+    return tuple(model.joint_names.index(x) for x in names)
+
+
+def _devices(t: Table, model: Model, simulated: bool) -> tuple[DeviceConfig, ...]:
+    tables = t.tables("devices", [])
+    if not tables:
+        if not simulated:
+            raise t.error("devices", "at least one [[devices]] table, or a [sim] table for the embedded simulator")
+        return (DeviceConfig("sim", "sim", tuple(range(model.nq)), Table({}, t.file, "devices[0]")),)
+    out, owner = [], {}
+    for d in tables:
+        name = d.str("name")
+        driver = "sim" if simulated else d.str("driver")
+        if simulated:
+            d.str("driver", "")  # the real driver is replaced, its options ignored
+            d.data = {k: v for k, v in d.data.items() if k in ("name", "driver", "joints")}
+        joints = joint_indices(d, "joints", model)
+        for j in joints:
+            if j in owner:
+                raise d.error("joints", f"joints served by one device; {model.joint_names[j]!r} is also on {owner[j]!r}")
+            owner[j] = name
+        out.append(DeviceConfig(name, driver, joints, d))
+    missing = [model.joint_names[j] for j in range(model.nq) if j not in owner]
+    if missing:
+        raise t.error("devices", f"every joint on a device; not served: {', '.join(missing)}")
+    return tuple(out)
+
+
+def _controllers(t: Table, model: Model) -> tuple[ControllerConfig, ...]:
+    out = []
+    for c in t.tables("controllers", []):
+        out.append(ControllerConfig(
+            name=c.str("name"), type=c.str("type"), joints=joint_indices(c, "joints", model),
+            divisor=c.int("divisor", 1, min=1), options=c))
+    return tuple(out)
+
+
+def _check_owners(t: Table, controllers) -> None:
+    """One owner per joint command (DESIGN §4)."""
+    owner = {}
+    for i, c in enumerate(controllers):
+        for j in c.joints:
+            if j in owner:
+                raise ConfigError(t.file, f"controllers[{i}].joints",
+                                  f"one controller per joint; joint {j} is already owned by {owner[j]!r}")
+            owner[j] = c.name
+
+
+def _trajectory(t: Table | None, model: Model) -> TrajectoryConfig | None:
+    if t is None:
+        return None
+    unit = t.str("unit", "rad", choices=("deg", "rad"))
+    raw = t.raw("waypoints")
+    ok = isinstance(raw, list) and raw and all(
+        isinstance(w, list) and len(w) == model.nq and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in w)
+        for w in raw)
+    if not ok:
+        raise t.error("waypoints", f"a non-empty array of waypoints, each {model.nq} numbers")
+    scale = np.where(model.joint_types == 0, np.pi / 180.0, 1.0) if unit == "deg" else np.ones(model.nq)
+    wp = np.array(raw, dtype=float) * scale
+    for k, w in enumerate(wp):
+        bad = np.flatnonzero((w < model.q_min) | (w > model.q_max))
+        if bad.size:
+            j = bad[0]
+            raise t.error(f"waypoints[{k}][{j}]", f"within {model.joint_names[j]}'s limits "
+                          f"[{model.q_min[j] / scale[j]:g}, {model.q_max[j] / scale[j]:g}] {unit}")
+    acc = t.vector("max_acceleration", model.nq, None)
+    cfg = TrajectoryConfig(
+        waypoints=wp, smooth=t.bool("smooth", True), dwell=t.float("dwell", 0.0, min=0.0),
+        velocity_scale=t.float("velocity_scale", 0.5, positive=True, max=1.0),
+        max_acceleration=None if acc is None else acc * scale, repeat=t.bool("repeat", False))
+    t.done()
+    return cfg
+
+
+def _safety(t: Table | None) -> SafetyConfig:
+    if t is None:
+        return SafetyConfig()
+    cfg = SafetyConfig(
+        fallback=t.str("fallback", "hold", choices=("hold", "damp")),
+        damping=t.float("damping", 5.0, min=0.0),
+        hold_stiffness=t.float("hold_stiffness", 50.0, min=0.0),
+        stale_ticks=t.int("stale_ticks", 3, min=1),
+        position_margin=t.float("position_margin", 0.0, min=0.0),
+        estop_off_delay=t.float("estop_off_delay", 0.2, min=0.0),
+    )
+    t.done()
+    return cfg
