@@ -1,0 +1,164 @@
+"""Shared robots for the model tests: PUMA 560 and the two-link arm (D-H TOML), UR5 and Panda
+(URDF from example-robot-data, skipped when it is not installed), random chains, and
+Pinocchio twins of them (skipped when ``pin`` is not installed).
+
+Fixtures:
+* ``puma``, ``two_link``, ``ur5``, ``panda`` — Models (the Panda's two finger joints are
+  locked at 0 and merged into the hand, so it is the 7-joint arm; flange = ``panda_hand``);
+* ``ur5_urdf``, ``panda_urdf`` — paths of the original URDF files;
+* ``random_chain(n, seed, prismatic=True)`` — a factory of generic serial chains: random joint
+  axes and tree placements, some prismatic joints, physically consistent inertias, random
+  flange and tool;
+* ``pin`` — the pinocchio module; ``pin_twin(model)`` — (pin.Model, pin.Data) built from
+  ``model.to_urdf()``; ``pin_q(pin_model, q)`` — our joint vector in Pinocchio's
+  configuration space (continuous joints take (cos q, sin q)).
+"""
+from __future__ import annotations
+
+import importlib.metadata
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rtctl.model import PRISMATIC, REVOLUTE, Model, load_robot
+from rtctl.model.dh import inertial_params
+from rtctl.model.rotations import homogeneous, rot_axis
+
+ROOT = Path(__file__).resolve().parents[2]
+ROBOTS = ROOT / "configs" / "robots"
+
+
+def example_robot_data(relative: str) -> Path:
+    """A file of the example-robot-data package, or skip the test saying why."""
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        pytest.skip("example-robot-data is not installed (pip install example-robot-data)")
+    path = Path(dist.locate_file(f"cmeel.prefix/share/example-robot-data/robots/{relative}"))
+    if not path.exists():
+        pytest.skip(f"example-robot-data has no {relative}")
+    return path
+
+
+def random_rotation(rng) -> np.ndarray:
+    axis = rng.normal(size=3)
+    return rot_axis(axis / np.linalg.norm(axis), rng.uniform(-np.pi, np.pi))
+
+
+def random_params(rng) -> np.ndarray:
+    """Physically consistent parameters: m > 0 and principal moments from positive second
+    moments of the mass distribution (so the triangle inequality holds)."""
+    m = rng.uniform(0.5, 5.0)
+    second = rng.uniform(0.002, 0.05, size=3) * m
+    principal = np.array([second[1] + second[2], second[0] + second[2], second[0] + second[1]])
+    R = random_rotation(rng)
+    return inertial_params(m, rng.uniform(-0.3, 0.3, size=3), R @ np.diag(principal) @ R.T)
+
+
+def make_random_chain(n: int, seed: int, prismatic: bool = True) -> Model:
+    rng = np.random.default_rng(seed)
+    types = np.full(n, REVOLUTE, dtype=np.int64)
+    if prismatic and n > 1:
+        types[rng.choice(n, size=max(1, n // 4), replace=False)] = PRISMATIC
+    axes = rng.normal(size=(n, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    return Model(
+        name=f"random{n}_{seed}",
+        joint_names=tuple(f"j{i + 1}" for i in range(n)),
+        joint_types=types,
+        parent=np.arange(n, dtype=np.int64) - 1,
+        axis=axes,
+        R_tree=np.array([random_rotation(rng) for _ in range(n)]),
+        p_tree=rng.uniform(-0.5, 0.5, size=(n, 3)),
+        params=np.array([random_params(rng) for _ in range(n)]),
+        q_min=np.full(n, -2.0), q_max=np.full(n, 2.0),
+        flange=homogeneous(random_rotation(rng), rng.uniform(-0.2, 0.2, 3)),
+        tool=homogeneous(random_rotation(rng), rng.uniform(-0.2, 0.2, 3)),
+    )
+
+
+@pytest.fixture(scope="session")
+def puma() -> Model:
+    return load_robot(ROBOTS / "puma560.toml")
+
+
+@pytest.fixture(scope="session")
+def two_link() -> Model:
+    return load_robot(ROBOTS / "two_link.toml")
+
+
+@pytest.fixture(scope="session")
+def ur5_urdf() -> Path:
+    return example_robot_data("ur_description/urdf/ur5_robot.urdf")
+
+
+@pytest.fixture(scope="session")
+def panda_urdf() -> Path:
+    return example_robot_data("panda_description/urdf/panda.urdf")
+
+
+PANDA_FINGERS = {"panda_finger_joint1": 0.0, "panda_finger_joint2": 0.0}
+
+
+@pytest.fixture(scope="session")
+def ur5(ur5_urdf) -> Model:
+    from rtctl.model.urdf import load_urdf
+
+    return load_urdf(ur5_urdf)
+
+
+@pytest.fixture(scope="session")
+def panda(panda_urdf) -> Model:
+    from rtctl.model.urdf import load_urdf
+
+    return load_urdf(panda_urdf, lock=PANDA_FINGERS)
+
+
+@pytest.fixture(scope="session")
+def random_chain():
+    return make_random_chain
+
+
+@pytest.fixture(scope="session")
+def pin():
+    return pytest.importorskip("pinocchio", reason="Pinocchio (pip install pin) is the reference")
+
+
+@pytest.fixture(scope="session")
+def pin_twin(pin):
+    def build(model: Model):
+        pmodel = pin.buildModelFromXML(model.to_urdf())
+        return pmodel, pmodel.createData()
+
+    return build
+
+
+def to_pin_q(pmodel, q) -> np.ndarray:
+    """Our joint vector in Pinocchio's configuration space (continuous joints: cos, sin)."""
+    out = np.zeros(pmodel.nq)
+    for joint, value in zip(list(pmodel.joints)[1:], q):
+        if joint.nq == 2:
+            out[joint.idx_q:joint.idx_q + 2] = np.cos(value), np.sin(value)
+        else:
+            out[joint.idx_q] = value
+    return out
+
+
+@pytest.fixture(scope="session")
+def pin_q():
+    return to_pin_q
+
+
+def random_states(model: Model, count: int, seed: int):
+    """Seeded random (q, q̇, q̈) within the joint limits (or ±π where unlimited)."""
+    rng = np.random.default_rng(seed)
+    lo = np.where(np.isfinite(model.q_min), model.q_min, -np.pi)
+    hi = np.where(np.isfinite(model.q_max), model.q_max, np.pi)
+    for _ in range(count):
+        yield rng.uniform(lo, hi), rng.uniform(-2, 2, model.nq), rng.uniform(-5, 5, model.nq)
+
+
+@pytest.fixture(scope="session")
+def states():
+    return random_states
