@@ -4,12 +4,14 @@ Pinocchio twins of them (skipped when ``pin`` is not installed).
 
 Fixtures:
 * ``puma``, ``two_link``, ``ur5``, ``panda`` — Models (the Panda's two finger joints are
-  locked at 0 and merged into the hand, so it is the 7-joint arm; flange = ``panda_hand``);
+  locked at 0 and merged into the hand, so it is the 7-joint arm; flange = ``panda_hand``;
+  the UR5's flange = ``tool0``, ROS-Industrial's flange frame);
 * ``ur5_urdf``, ``panda_urdf`` — paths of the original URDF files;
 * ``random_chain(n, seed, prismatic=True)`` — a factory of generic serial chains: random joint
   axes and tree placements, some prismatic joints, physically consistent inertias, random
   flange and tool;
-* ``pin`` — the pinocchio module; ``pin_twin(model)`` — (pin.Model, pin.Data) built from
+* ``pin`` — the pinocchio module; ``pin_ur5``, ``pin_panda`` — (pin.Model, pin.Data) read by
+  Pinocchio from the original files; ``pin_twin(model)`` — (pin.Model, pin.Data) built from
   ``model.to_urdf()``; ``pin_q(pin_model, q)`` — our joint vector in Pinocchio's
   configuration space (continuous joints take (cos q, sin q)).
 """
@@ -105,7 +107,7 @@ PANDA_FINGERS = {"panda_finger_joint1": 0.0, "panda_finger_joint2": 0.0}
 def ur5(ur5_urdf) -> Model:
     from rtctl.model.urdf import load_urdf
 
-    return load_urdf(ur5_urdf)
+    return load_urdf(ur5_urdf, flange_link="tool0")
 
 
 @pytest.fixture(scope="session")
@@ -162,3 +164,19 @@ def random_states(model: Model, count: int, seed: int):
 @pytest.fixture(scope="session")
 def states():
     return random_states
+
+
+@pytest.fixture(scope="session")
+def pin_ur5(pin, ur5_urdf):
+    """Pinocchio's own reading of the original UR5 URDF (independent of our loader)."""
+    pmodel = pin.buildModel(str(ur5_urdf))
+    return pmodel, pmodel.createData()
+
+
+@pytest.fixture(scope="session")
+def pin_panda(pin, panda_urdf):
+    """Pinocchio's Panda with the fingers locked at 0, as in the ``panda`` fixture."""
+    full = pin.buildModel(str(panda_urdf))
+    locked = [full.getJointId(name) for name in PANDA_FINGERS]
+    pmodel = pin.buildReducedModel(full, locked, pin.neutral(full))
+    return pmodel, pmodel.createData()
