@@ -169,14 +169,14 @@ def states():
 @pytest.fixture(scope="session")
 def pin_ur5(pin, ur5_urdf):
     """Pinocchio's own reading of the original UR5 URDF (independent of our loader)."""
-    pmodel = pin.buildModel(str(ur5_urdf))
+    pmodel = pin.buildModelFromUrdf(str(ur5_urdf))
     return pmodel, pmodel.createData()
 
 
 @pytest.fixture(scope="session")
 def pin_panda(pin, panda_urdf):
     """Pinocchio's Panda with the fingers locked at 0, as in the ``panda`` fixture."""
-    full = pin.buildModel(str(panda_urdf))
+    full = pin.buildModelFromUrdf(str(panda_urdf))
     locked = [full.getJointId(name) for name in PANDA_FINGERS]
     pmodel = pin.buildReducedModel(full, locked, pin.neutral(full))
     return pmodel, pmodel.createData()
