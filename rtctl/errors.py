@@ -44,6 +44,10 @@ class BusLoadError(ConfigError):
     """A bus would be loaded beyond its configured limit at the configured rate."""
 
 
+class TrajectoryError(RtctlError):
+    """A trajectory cannot be planned as asked (duration below the limits' minimum, waypoint out of range)."""
+
+
 class SafetyError(RtctlError):
     """The safety stage stopped the robot (limit, watchdog, non-finite output, e-stop)."""
 
@@ -54,3 +58,7 @@ class RealtimeError(RtctlError):
 
 class ControlSocketError(RtctlError):
     """The control socket is unreachable or answered with an error."""
+
+
+class TelemetryError(RtctlError):
+    """A telemetry file cannot be written or read back (bad schema, writer died, not a telemetry file)."""
