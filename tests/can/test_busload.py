@@ -1,0 +1,91 @@
+"""Bus-load budget: the stuffed-frame formula against a bit-stuffing simulation and published
+numbers, and the refusal with its ways out."""
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from rtctl import busload
+from rtctl.errors import BusLoadError, ConfigError
+
+
+def stuff_bits(bits):
+    """Stuff bits CAN inserts into ``bits``: one after every run of 5 equal bits (the stuff bit
+    itself starts the next run)."""
+    count, run, last = 0, 0, None
+    for b in bits:
+        run = run + 1 if b == last else 1
+        last = b
+        if run == 5:
+            count += 1
+            last, run = 1 - b, 1
+    return count
+
+
+def worst_case_pattern(k):
+    # 5 equal bits, then groups of 4 that each complete a run with the previous stuff bit
+    bits, b = [0] * 5, 0
+    while len(bits) < k:
+        b = 1 - b  # the stuff bit after a run of (1-b)'s is b: 4 more b's end the next run
+        bits += [b] * 4
+    return bits[:k]
+
+
+@pytest.mark.parametrize("n", range(9))
+def test_frame_bits_is_the_worst_stuffing(n):
+    k = 34 + 8 * n  # the stuffable part of a standard frame
+    assert busload.frame_bits(n) == 8 * n + 47 + stuff_bits(worst_case_pattern(k))
+
+
+@settings(max_examples=300, deadline=None)
+@given(n=st.integers(0, 8), data=st.data())
+def test_no_bit_pattern_stuffs_more(n, data):
+    k = 34 + 8 * n
+    bits = data.draw(st.lists(st.integers(0, 1), min_size=k, max_size=k))
+    assert 8 * n + 47 + stuff_bits(bits) <= busload.frame_bits(n)
+
+
+def test_published_frame_lengths():
+    # Davis et al. 2007 (CAN schedulability revised): 135 bits for 8 bytes; spec: 115 for 6
+    assert busload.frame_bits(8) == 135
+    assert busload.frame_bits(6) == 115
+    with pytest.raises(ValueError):
+        busload.frame_bits(9)
+
+
+def test_spec_numbers():
+    six = busload.bus_load("arm", "mit", 6, 1000, 1_000_000)
+    assert six.bits_per_tick == 6 * 250 and six.load == pytest.approx(1.5)
+    assert busload.bus_load("arm", "mit", 6, 500, 1_000_000).load == pytest.approx(0.75)
+    three = busload.bus_load("arm", "mit", 3, 1000, 1_000_000)
+    assert three.load == pytest.approx(0.75) and three.time_per_tick_s == pytest.approx(750e-6)
+    # CiA 402: per joint RPDO 4 B (95 bits) + TPDO 8 B (135), one SYNC (55) per bus
+    assert busload.bus_load("x", "cia402", 2, 1000, 1_000_000).bits_per_tick == 2 * (95 + 135) + 55
+
+
+def test_six_joints_at_1khz_on_one_bus_refused_with_ways_out():
+    load = busload.bus_load("arm", "mit", 6, 1000, 1_000_000)
+    with pytest.raises(BusLoadError) as err:
+        busload.check_bus_load(load, "robot.toml", "buses.arm")
+    e = err.value
+    assert isinstance(e, ConfigError) and e.file == "robot.toml" and e.key_path == "buses.arm"
+    msg = str(e)
+    assert "150 %" in msg and "80 %" in msg
+    assert "≤ 533 Hz" in msg  # 0.8 · 1e6 / 1500
+    assert "2 buses (≤ 3 per bus" in msg
+    assert "CAN FD" in msg
+
+
+def test_accepted_at_500hz_or_on_two_buses_or_with_three_joints():
+    busload.check_bus_load(busload.bus_load("arm", "mit", 6, 500, 1_000_000), "r.toml", "buses.arm")
+    for name in ("a", "b"):
+        busload.check_bus_load(busload.bus_load(name, "mit", 3, 1000, 1_000_000), "r.toml", f"buses.{name}")
+    # a stricter limit refuses the same 75 %
+    with pytest.raises(BusLoadError):
+        busload.check_bus_load(busload.bus_load("a", "mit", 3, 1000, 1_000_000), "r.toml", "buses.a", limit=0.7)
+
+
+def test_budget_table():
+    table = busload.format_budget(
+        [busload.bus_load("a", "mit", 3, 1000, 1_000_000), busload.bus_load("b", "mit", 6, 1000, 1_000_000)]
+    )
+    lines = table.splitlines()
+    assert len(lines) == 3 and "75%" in lines[1] and "150%" in lines[2] and "limit" in lines[2]
