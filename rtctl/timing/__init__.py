@@ -1,0 +1,14 @@
+"""Timing side of the runtime: the fixed-rate ticker, its statistics, real-time knobs, doctor.
+
+- :mod:`rtctl.timing.clock` — monotonic clock with sleep-then-spin; a fake clock for tests
+- :mod:`rtctl.timing.scheduler` — :class:`Ticker` (deadlines, overrun policy), :func:`due`
+- :mod:`rtctl.timing.stats` — :class:`LoopStats` (log-bucket histograms, O(1) memory)
+"""
+from rtctl.timing.clock import FakeClock, MonotonicClock
+from rtctl.timing.scheduler import PHASES, RECORD, READ, SAFETY, UPDATE, WRITE, Ticker, due
+from rtctl.timing.stats import LoopStats
+
+__all__ = [
+    "FakeClock", "MonotonicClock", "Ticker", "due", "LoopStats",
+    "PHASES", "READ", "UPDATE", "SAFETY", "WRITE", "RECORD",
+]

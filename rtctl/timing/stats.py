@@ -1,0 +1,139 @@
+"""Always-on loop statistics in O(1) memory: log-bucketed histograms of nanosecond times.
+
+Each histogram has 32 linear sub-buckets per power of two (HdrHistogram's layout with
+5 significant bits): values below 64 ns get a bucket each (exact), a value ``x ≥ 64`` lands
+in a bucket of width ``2^(bit_length(x) − 6)``, i.e. at most 1/32 of ``x``. A percentile
+is reported as the middle of its bucket, so it is within **1/64 ≈ 1.6 %** of the exact
+order statistic (``numpy.percentile(..., method="inverted_cdf")``); the maximum is exact.
+Values are clamped to ``2^40`` ns (18 min). A one-hour run at 1 kHz costs the same
+memory as a one-second one: 7 rows × 1152 counters.
+
+``record`` is plain Python over a preallocated list (no numpy scalar indexing, no
+allocation of containers): about 1.2 µs per tick, measured by ``rtctl.bench.loop_timing``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+SUB_BITS = 5  # 2^5 = 32 sub-buckets per octave
+_LINEAR = 2 << SUB_BITS  # values below 64 have exact buckets
+MAX_VALUE_NS = (1 << 40) - 1
+N_BUCKETS = ((MAX_VALUE_NS.bit_length() - SUB_BITS - 1) << SUB_BITS) + _LINEAR
+PERCENTILES = (("p50", 50, 100), ("p99", 99, 100), ("p99_9", 999, 1000))
+
+
+def bucket_index(x: int) -> int:
+    """Histogram bucket of a non-negative integer ``x`` (negative → 0, huge → last)."""
+    if x < _LINEAR:
+        return x if x > 0 else 0
+    if x > MAX_VALUE_NS:
+        x = MAX_VALUE_NS
+    s = x.bit_length() - SUB_BITS - 1
+    return (s << SUB_BITS) + (x >> s)
+
+
+def bucket_bounds(i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lowest value and width of buckets ``i`` (the inverse of :func:`bucket_index`)."""
+    i = np.asarray(i, dtype=np.int64)
+    shift = np.maximum((i >> SUB_BITS) - 1, 0)
+    low = np.where(i < _LINEAR, i, (i - (shift << SUB_BITS)) << shift)
+    return low, np.int64(1) << shift
+
+
+class LoopStats:
+    """Per-tick timing statistics: wake lateness, whole-tick compute time and each phase's.
+
+    Row 0 is wake lateness (actual wake − deadline), row 1 the tick's compute time
+    (wake → end of tick), rows 2… the phases, in the order given.
+    """
+
+    def __init__(self, phases=("read", "update", "safety", "write", "record")):
+        self.phases = tuple(phases)
+        self.rows = ("wake_lateness", "tick") + self.phases
+        self._counts = [0] * (N_BUCKETS * len(self.rows))  # row r at offset r·N_BUCKETS
+        self._max = [0] * len(self.rows)
+        self.ticks = 0
+        self.overruns = 0
+        self.skipped_periods = 0
+        self.max_consecutive_overruns = 0
+
+    def record(self, lateness_ns: int | None, phase_ns, compute_ns: int) -> None:
+        """Add one tick. ``lateness_ns`` is None when nothing waited (lock-step mode);
+        ``phase_ns`` is a sequence of ints, one per phase."""
+        self.ticks += 1
+        if lateness_ns is not None:
+            self._add(0, lateness_ns)
+        self._add(1, compute_ns)
+        counts, mx = self._counts, self._max
+        row = 2
+        for x in phase_ns:  # _add inlined: a call per phase would cost a third more
+            if x > mx[row]:
+                mx[row] = x
+            if x < _LINEAR:
+                i = x if x > 0 else 0
+            else:
+                if x > MAX_VALUE_NS:
+                    x = MAX_VALUE_NS
+                s = x.bit_length() - SUB_BITS - 1
+                i = (s << SUB_BITS) + (x >> s)
+            counts[row * N_BUCKETS + i] += 1
+            row += 1
+
+    def _add(self, row: int, x: int) -> None:
+        if x > self._max[row]:
+            self._max[row] = x
+        if x < _LINEAR:
+            i = x if x > 0 else 0
+        else:
+            if x > MAX_VALUE_NS:
+                x = MAX_VALUE_NS
+            s = x.bit_length() - SUB_BITS - 1
+            i = (s << SUB_BITS) + (x >> s)
+        self._counts[row * N_BUCKETS + i] += 1
+
+    def record_overrun(self, skipped: int, consecutive: int) -> None:
+        self.overruns += 1
+        self.skipped_periods += skipped
+        if consecutive > self.max_consecutive_overruns:
+            self.max_consecutive_overruns = consecutive
+
+    def percentiles_ns(self, row: str) -> dict:
+        """count, p50, p99, p99_9, max of one row, in ns (None when the row is empty)."""
+        r = self.rows.index(row)
+        counts = np.asarray(self._counts[r * N_BUCKETS:(r + 1) * N_BUCKETS], dtype=np.int64)
+        n = int(counts.sum())
+        out = {"count": n}
+        if n == 0:
+            return out | {name: None for name, _, _ in PERCENTILES} | {"max": None}
+        cum = np.cumsum(counts)
+        for name, num, den in PERCENTILES:
+            rank = -(-n * num // den)  # ceil(n·q) in integers: the inverted-CDF order statistic
+            low, width = bucket_bounds(np.searchsorted(cum, rank))
+            out[name] = min(float(low + (width - 1) / 2), float(self._max[r]))
+        out["max"] = float(self._max[r])
+        return out
+
+    def summary(self, wall_time_s: float, period_s: float, realtime_factor: float) -> dict:
+        """JSON-able digest in µs: counts, percentiles, overruns, achieved rate."""
+
+        def us(row):
+            p = self.percentiles_ns(row)
+            return {k: (v if k == "count" or v is None else round(v / 1e3, 3)) for k, v in p.items()}
+
+        sim_time_s = self.ticks * period_s
+        return {
+            "ticks": self.ticks,
+            "overruns": self.overruns,
+            "skipped_periods": self.skipped_periods,
+            "max_consecutive_overruns": self.max_consecutive_overruns,
+            "period_us": round(period_s * 1e6, 3),
+            "realtime_factor": realtime_factor,
+            "target_rate_hz": realtime_factor / period_s if realtime_factor > 0 else None,
+            "achieved_rate_hz": self.ticks / wall_time_s if wall_time_s > 0 else None,
+            "wall_time_s": wall_time_s,
+            "sim_time_s": sim_time_s,
+            "realtime_ratio": sim_time_s / wall_time_s if wall_time_s > 0 else None,
+            "wake_lateness_us": us("wake_lateness"),
+            "compute_us": {row: us(row) for row in self.rows[1:]},
+            "resolution": "log buckets, 32 per octave: percentiles within 1.6 %, max exact",
+        }
