@@ -64,13 +64,15 @@ class Recorder:
         self.block_rows, self.n_blocks = block_rows, n_blocks
         self.wait_when_full = wait_when_full
         self._closed = False
-        self._bound: list[tuple[np.ndarray, np.ndarray]] = []
+        self._bound: list[tuple[memoryview, memoryview]] = []
         dtype = row_dtype(self.schema)
         self._staging = np.zeros(1, dtype)
         # Views into the staging row, stable for the recorder's life (scalars are 0-d views).
         self.row = {name: self._staging[name][0] if shape else self._staging[name].reshape(())
                     for name, (shape, _) in self.schema.items()}
-        self._raw_row = self._staging.view(np.uint8)
+        self._staging_bytes = memoryview(self._staging.view(np.uint8))
+        self._row_bytes = dtype.itemsize
+        self._block_bytes = dtype.itemsize * block_rows
         header = {"type": "header", "format": FORMAT, "version": VERSION,
                   "schema": schema_to_wire(self.schema), "block_rows": block_rows,
                   "meta": meta or {}, "start_time": time.time()}
@@ -89,12 +91,12 @@ class Recorder:
         finally:
             os.close(file_fd)  # the writer owns the file from here on
         self._ctl = self._ring.ctl
-        self._raw_blocks = self._ring.raw_blocks
+        self._ring_bytes = self._ring.rows
         self._stored = 0
         self._dropped = 0
         self._i = 0  # next row within the current block
         self._block_no = 0  # index of the current block in the run (not in the ring)
-        self._raw_block = self._raw_blocks[0]
+        self._offset = 0  # byte offset of the next row in the ring
 
     def _start_writer(self, file_fd: int):
         read_fd, write_fd = os.pipe()
@@ -120,18 +122,28 @@ class Recorder:
     # ---- hot path -------------------------------------------------------------------
 
     def bind(self, name: str, source: np.ndarray) -> None:
-        """Have :meth:`record` copy ``source`` (an array the loop updates in place) into column ``name``."""
+        """Have :meth:`record` copy ``source`` into column ``name``.
+
+        ``source`` is an array the loop updates in place (e.g. ``state.position``): C-contiguous,
+        of the column's shape and dtype. The copy is a memoryview slice assignment, ~0.2 µs
+        against ~0.35 µs for numpy's ``dst[...] = src``.
+        """
         if name not in self.row:
             raise TelemetryError(f"telemetry has no column {name!r}; columns: {', '.join(self.row)}")
-        if np.shape(source) != self.row[name].shape:
-            raise TelemetryError(f"telemetry column {name!r} has shape {self.row[name].shape}, "
-                                 f"source has {np.shape(source)}")
-        self._bound.append((self.row[name], source))
+        shape, dtype = self.schema[name]
+        if (not isinstance(source, np.ndarray) or source.shape != shape or source.dtype != dtype
+                or not source.flags.c_contiguous):
+            raise TelemetryError(f"telemetry column {name!r} binds a C-contiguous {dtype} array of shape "
+                                 f"{shape}, got {type(source).__name__} {getattr(source, 'dtype', '')} "
+                                 f"{np.shape(source)}")
+        offset = self._staging.dtype.fields[name][1]
+        dst = self._staging_bytes[offset:offset + source.nbytes]
+        self._bound.append((dst, memoryview(source.reshape(-1)).cast("B")))
 
     def record(self) -> bool:
         """Copy every bound source into the staging row, then :meth:`commit`."""
         for dst, src in self._bound:
-            dst[...] = src
+            dst[:] = src
         return self.commit()
 
     def commit(self) -> bool:
@@ -141,14 +153,16 @@ class Recorder:
                 self._dropped += 1
                 self._ctl[DROPPED] = self._dropped
                 return False
-        self._raw_block[self._i] = self._raw_row
+        offset = self._offset
+        self._ring_bytes[offset:offset + self._row_bytes] = self._staging_bytes  # memoryview: ~2x numpy's speed
         self._stored += 1
         self._ctl[STORED] = self._stored
         self._i += 1
+        self._offset = offset + self._row_bytes
         if self._i == self.block_rows:
             self._i = 0
             self._block_no += 1
-            self._raw_block = self._raw_blocks[self._block_no % self.n_blocks]
+            self._offset = (self._block_no % self.n_blocks) * self._block_bytes
             try:
                 os.write(self._pipe_fd, _WAKE)
             except (BlockingIOError, BrokenPipeError):
@@ -201,7 +215,7 @@ class Recorder:
             self._proc.kill()
             self._proc.wait()
             code = None
-        self._raw_block = self._raw_blocks = self._ctl = None
+        self._ctl = self._ring_bytes = None
         self._ring.close()
         if code != 0:
             raise TelemetryError(f"telemetry writer for {self.path} failed "

@@ -67,25 +67,33 @@ def test_partial_last_block_is_written_on_close(tmp_path):
 
 
 def test_bound_sources_are_copied_by_record(tmp_path):
-    rec = Recorder(tmp_path / "run.rtt", {"q": (3, "f8"), "t": ((), "f8")}, wait_when_full=True)
-    q = np.zeros(3)
+    schema = {"t": ((), "f8"), "q": (3, "f8"), "n": ((), "i4"), "m": ((2, 2), "i2")}
+    rec = Recorder(tmp_path / "run.rtt", schema, wait_when_full=True)
+    q, n, m = np.zeros(3), np.zeros((), np.int32), np.zeros((2, 2), np.int16)
     rec.bind("q", q)
+    rec.bind("n", n)
+    rec.bind("m", m)
     for k in range(5):
         q[:] = [k, 2 * k, 3 * k]
+        n[()] = -k
+        m[:] = [[k, 0], [0, 2 * k]]
         rec.row["t"][()] = 0.001 * k
         rec.record()
     rec.close()
     tel = read(tmp_path / "run.rtt")
     np.testing.assert_array_equal(tel["q"], np.outer(np.arange(5), [1, 2, 3]))
     np.testing.assert_array_equal(tel["t"], 0.001 * np.arange(5))
+    np.testing.assert_array_equal(tel["n"], -np.arange(5))
+    np.testing.assert_array_equal(tel["m"][:, 1, 1], 2 * np.arange(5))
 
 
 def test_bind_checks_name_and_shape(tmp_path):
     rec = Recorder(tmp_path / "run.rtt", {"q": (3, "f8")})
     with pytest.raises(TelemetryError, match="no column 'qd'"):
         rec.bind("qd", np.zeros(3))
-    with pytest.raises(TelemetryError, match="shape"):
-        rec.bind("q", np.zeros(4))
+    for wrong in (np.zeros(4), np.zeros(3, np.float32), np.zeros(6)[::2], [0.0, 0.0, 0.0]):
+        with pytest.raises(TelemetryError, match="binds a C-contiguous float64 array of shape"):
+            rec.bind("q", wrong)
     rec.close()
 
 
