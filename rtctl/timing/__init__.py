@@ -3,12 +3,15 @@
 - :mod:`rtctl.timing.clock` — monotonic clock with sleep-then-spin; a fake clock for tests
 - :mod:`rtctl.timing.scheduler` — :class:`Ticker` (deadlines, overrun policy), :func:`due`
 - :mod:`rtctl.timing.stats` — :class:`LoopStats` (log-bucket histograms, O(1) memory)
+- :mod:`rtctl.timing.rt` — :func:`apply_rt` (SCHED_FIFO, affinity, mlockall, timer slack, GC freeze)
 """
 from rtctl.timing.clock import FakeClock, MonotonicClock
+from rtctl.timing.rt import KnobReport, KnobStatus, RtSettings, apply_rt
 from rtctl.timing.scheduler import PHASES, RECORD, READ, SAFETY, UPDATE, WRITE, Ticker, due
 from rtctl.timing.stats import LoopStats
 
 __all__ = [
     "FakeClock", "MonotonicClock", "Ticker", "due", "LoopStats",
+    "RtSettings", "KnobReport", "KnobStatus", "apply_rt",
     "PHASES", "READ", "UPDATE", "SAFETY", "WRITE", "RECORD",
 ]
