@@ -1,0 +1,190 @@
+"""Build joint trajectories: point-to-point, through waypoints (stopping or smooth), retarget.
+
+Every constructor takes plain values (sequences of floats, radians or metres), so a parsed
+TOML table can be passed as it is, and returns a :class:`JointTrajectory` that never
+exceeds the :class:`JointLimits` — checked with the exact extrema of every segment; a
+request that cannot be met (duration too short, waypoint out of range) raises
+:class:`~rtctl.errors.TrajectoryError` saying why.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rtctl.errors import TrajectoryError
+from rtctl.trajectory.piecewise import JointTrajectory
+from rtctl.trajectory.quintic import (coefficients, constant, extrema, fits, rest_to_rest_duration,
+                                      shortest_duration)
+from rtctl.trajectory.smooth import fit_durations, run_coefficients
+
+_RTOL = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class JointLimits:
+    """Per-joint velocity and acceleration limits (> 0) and optional position limits."""
+
+    v_max: np.ndarray
+    a_max: np.ndarray
+    q_min: np.ndarray | None = None
+    q_max: np.ndarray | None = None
+
+    def __post_init__(self):
+        v, a = np.asarray(self.v_max, float), np.asarray(self.a_max, float)
+        if v.ndim != 1 or v.shape != a.shape or not (np.all(v > 0) and np.all(a > 0)):
+            raise TrajectoryError("v_max and a_max must be positive, one per joint")
+        object.__setattr__(self, "v_max", v)
+        object.__setattr__(self, "a_max", a)
+        if (self.q_min is None) != (self.q_max is None):
+            raise TrajectoryError("give both q_min and q_max, or neither")
+        if self.q_min is not None:
+            lo, hi = np.asarray(self.q_min, float), np.asarray(self.q_max, float)
+            if lo.shape != v.shape or hi.shape != v.shape or np.any(lo >= hi):
+                raise TrajectoryError("q_min < q_max, one per joint")
+            object.__setattr__(self, "q_min", lo)
+            object.__setattr__(self, "q_max", hi)
+
+    @classmethod
+    def from_model(cls, model, a_max, velocity_scale: float = 1.0) -> "JointLimits":
+        """The model's velocity limits (scaled) and joint range, with the given accelerations."""
+        return cls(model.v_max * velocity_scale, np.broadcast_to(np.asarray(a_max, float), (model.nq,)),
+                   model.q_min, model.q_max)
+
+    @property
+    def n(self) -> int:
+        return len(self.v_max)
+
+    def check_position(self, q, what: str) -> None:
+        if self.q_min is None:
+            return
+        bad = np.flatnonzero((q < self.q_min) | (q > self.q_max))
+        if len(bad):
+            j = bad[0]
+            raise TrajectoryError(f"{what}: joint {j} at {q[j]:.6g} is outside [{self.q_min[j]:.6g}, {self.q_max[j]:.6g}]")
+
+
+def hold(q, t0: float = 0.0) -> JointTrajectory:
+    """Stay at ``q`` from ``t0`` on."""
+    return JointTrajectory([t0, t0], constant(np.asarray(q, float))[None])
+
+
+def point_to_point(q0, q1, limits: JointLimits, duration: float | None = None, t0: float = 0.0) -> JointTrajectory:
+    """Synchronised min-jerk move from rest at ``q0`` to rest at ``q1``: the shortest duration
+    within the limits (closed form, see :mod:`~rtctl.trajectory.quintic`), or the requested
+    ``duration`` if that is longer (a shorter one raises)."""
+    return through_waypoints([q1], limits, start=q0, durations=None if duration is None else [duration], t0=t0)
+
+
+def through_waypoints(waypoints, limits: JointLimits, *, start=None, smooth: bool = False, dwell=0.0,
+                      durations=None, t0: float = 0.0) -> JointTrajectory:
+    """Through ``waypoints`` (m × n) from ``start`` (e.g. the measured position; default: the
+    first waypoint), then hold the last one.
+
+    ``smooth=False`` stops at every waypoint (one min-jerk segment each, shortest duration);
+    ``smooth=True`` passes through them (:mod:`~rtctl.trajectory.smooth`) and stops only at
+    the ends, at repeated points and where ``dwell`` > 0. ``dwell``: seconds to wait at each
+    waypoint (a scalar or one per waypoint). ``durations``: one per motion segment — in stop
+    mode each entry is a duration or None (shortest), and one below the limits' minimum
+    raises; in smooth mode all of them or none.
+    """
+    W = np.atleast_2d(np.asarray(waypoints, float))
+    if W.shape[1] != limits.n or len(W) == 0:
+        raise TrajectoryError(f"waypoints must be (m, {limits.n}), got {W.shape}")
+    first = 0 if start is None else 1
+    points = W if start is None else np.vstack([np.asarray(start, float), W])
+    if not np.all(np.isfinite(points)):
+        raise TrajectoryError("waypoints and start must be finite")
+    for k, p in enumerate(points):
+        limits.check_position(p, "start" if k < first else f"waypoint {k - first}")
+    dwell_at = np.zeros(len(points))
+    dwell_at[first:] = np.broadcast_to(np.asarray(dwell, float), (len(W),))
+    if np.any(dwell_at < 0):
+        raise TrajectoryError("dwell times must be >= 0")
+    n_seg = len(points) - 1
+    if durations is not None and len(durations) != n_seg:
+        raise TrajectoryError(f"{n_seg} motion segments but {len(durations)} durations")
+
+    moving = np.any(points[1:] != points[:-1], axis=1)  # False for a repeated point
+    stop = np.ones(len(points), dtype=bool)
+    if smooth:
+        stop[1:-1] = (dwell_at[1:-1] > 0) | ~moving[:-1] | ~moving[1:]
+    T_all, C_all = [], []
+    for a in range(n_seg + 1):
+        if dwell_at[a] > 0:
+            T_all.append(dwell_at[a])
+            C_all.append(constant(points[a]))
+        if a < n_seg and stop[a] and moving[a]:
+            b = a + 1 + int(np.argmax(stop[a + 1:]))  # the next stop point
+            T, C = _run(points[a:b + 1], limits, None if durations is None else durations[a:b], a)
+            T_all.extend(T)
+            C_all.extend(C)
+    if not T_all:
+        return hold(points[-1], t0)
+    return JointTrajectory.from_segments(t0, T_all, np.array(C_all))
+
+
+def _run(points, limits, requested, first_segment):
+    """Durations and coefficients of the segments between two stop points."""
+    if len(points) == 2:  # one rest-to-rest segment
+        t_min = rest_to_rest_duration(points[1] - points[0], limits.v_max, limits.a_max)
+        T = t_min if requested is None or requested[0] is None else float(requested[0])
+        if T < t_min * (1 - _RTOL):
+            raise TrajectoryError(f"segment {first_segment}: duration {T:.6g} s is below the "
+                                  f"{t_min:.6g} s the velocity/acceleration limits need")
+        return [T], [coefficients(points[0], 0.0, 0.0, points[1], 0.0, 0.0, T)]
+    if requested is None or all(r is None for r in requested):
+        T = fit_durations(points, limits.v_max, limits.a_max)
+    elif any(r is None for r in requested):
+        raise TrajectoryError("smooth trajectories take all segment durations or none")
+    else:
+        T = np.asarray(requested, float)
+    C = run_coefficients(points, T)
+    for k in range(len(T)):
+        _check(C[k], T[k], limits, first_segment + k)
+    return list(T), list(C)
+
+
+def _check(c, T, limits, segment):
+    if T <= 0:
+        raise TrajectoryError(f"segment {segment}: duration {T:.6g} s must be positive")
+    if fits(c, T, limits.v_max, limits.a_max, limits.q_min, limits.q_max):
+        return
+    e = extrema(c, T)
+    detail = f"peak |q̇|/v_max {np.max(e[2] / limits.v_max):.4g}, |q̈|/a_max {np.max(e[3] / limits.a_max):.4g}"
+    if limits.q_min is not None:
+        detail += f", range [{', '.join(f'{x:.4g}' for x in e[0])}] .. [{', '.join(f'{x:.4g}' for x in e[1])}]"
+    raise TrajectoryError(f"segment {segment}: duration {T:.6g} s violates the limits ({detail})")
+
+
+def retarget(t: float, q, qd, qdd, waypoints, limits: JointLimits, *, duration: float | None = None,
+             smooth: bool = False, dwell=0.0) -> JointTrajectory:
+    """Replace the running trajectory at time ``t`` (the control socket's ``move``): from the
+    current reference state (``q``, ``qd``, ``qdd`` — position, velocity and acceleration stay
+    continuous) to rest at the first waypoint, in the shortest duration within the limits
+    (closed form from rest, else :func:`~rtctl.trajectory.quintic.shortest_duration`) or the
+    requested ``duration``; then on through the other waypoints as :func:`through_waypoints`
+    would. Raises :class:`~rtctl.errors.TrajectoryError` when no duration fits.
+    """
+    q, qd, qdd = (np.asarray(x, float) for x in (q, qd, qdd))
+    W = np.atleast_2d(np.asarray(waypoints, float))
+    limits.check_position(q, "start")
+    rest = through_waypoints(W, limits, smooth=smooth, dwell=dwell)  # validates the waypoints
+    at_rest = not (np.any(qd) or np.any(qdd))
+    if duration is not None:
+        T = float(duration)
+    elif at_rest:
+        T = rest_to_rest_duration(W[0] - q, limits.v_max, limits.a_max)
+    else:
+        T = shortest_duration(q, qd, qdd, W[0], limits.v_max, limits.a_max, limits.q_min, limits.q_max)
+        if T is None:
+            raise TrajectoryError("no duration brings the current motion to the target within the limits")
+    T_all, C_all = list(np.diff(rest.knots)), list(rest.coeffs)
+    if not (at_rest and np.array_equal(q, W[0])):
+        c0 = coefficients(q, qd, qdd, W[0], 0.0, 0.0, T)
+        _check(c0, T, limits, 0)
+        if rest.duration == 0.0:  # nothing after the first waypoint: drop the hold segment
+            T_all, C_all = [], []
+        T_all.insert(0, T)
+        C_all.insert(0, c0)
+    return JointTrajectory.from_segments(t, T_all, np.array(C_all))
