@@ -1,0 +1,105 @@
+"""The control-socket commands and the validation of their shape (not of their meaning).
+
+=========  ====================================================================================
+``cmd``    fields
+=========  ====================================================================================
+status     —
+stop       — (controlled stop, then the daemon exits)
+estop      —
+reset      — (clear latched faults)
+move       exactly one of ``q``: [n numbers] (target joint positions) or ``waypoints``:
+           [[n numbers], ...]; optional ``duration``: number > 0 (with ``q``), ``times``:
+           [numbers > 0, strictly increasing, one per waypoint] (with ``waypoints``; seconds
+           from the start of the move), ``deg``: bool (positions in degrees; default false)
+=========  ====================================================================================
+
+:func:`validate` turns a decoded request into the dict the daemon's handler receives:
+``{"cmd": ...}`` plus, for ``move``, ``q`` or ``waypoints`` as float64 arrays ((n,) or (m, n)),
+``duration`` and ``times`` (float / float64 array, or None) and ``deg`` (bool). Whether the
+target is reachable, within limits or sensible now is the handler's call.
+"""
+from __future__ import annotations
+
+import math
+from numbers import Real
+
+import numpy as np
+
+MAX_REQUEST_BYTES = 64 * 1024
+
+COMMANDS = {
+    "status": frozenset(),
+    "stop": frozenset(),
+    "estop": frozenset(),
+    "reset": frozenset(),
+    "move": frozenset({"q", "waypoints", "duration", "times", "deg"}),
+}
+
+
+class InvalidRequest(ValueError):
+    """The request's shape is wrong; the message is sent back to the client as is."""
+
+
+def _number(value, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value):
+        raise InvalidRequest(f"{where}: expected a finite number, got {value!r}")
+    return float(value)
+
+
+def _vector(value, where: str, n_joints: int | None) -> np.ndarray:
+    if not isinstance(value, list) or not value:
+        raise InvalidRequest(f"{where}: expected a non-empty list of numbers, got {type(value).__name__}")
+    if n_joints is not None and len(value) != n_joints:
+        raise InvalidRequest(f"{where}: expected {n_joints} joint positions, got {len(value)}")
+    return np.array([_number(v, f"{where}[{i}]") for i, v in enumerate(value)])
+
+
+def _move(request: dict, n_joints: int | None) -> dict:
+    has_q, has_wp = "q" in request, "waypoints" in request
+    if has_q == has_wp:
+        raise InvalidRequest("move: give exactly one of 'q' (target positions) or 'waypoints'")
+    out = {"cmd": "move", "q": None, "waypoints": None, "duration": None, "times": None, "deg": False}
+    if "deg" in request:
+        if not isinstance(request["deg"], bool):
+            raise InvalidRequest(f"move.deg: expected true or false, got {request['deg']!r}")
+        out["deg"] = request["deg"]
+    if has_q:
+        if "times" in request:
+            raise InvalidRequest("move.times: only with 'waypoints' (use 'duration' with 'q')")
+        out["q"] = _vector(request["q"], "move.q", n_joints)
+        if "duration" in request:
+            out["duration"] = _number(request["duration"], "move.duration")
+            if out["duration"] <= 0:
+                raise InvalidRequest(f"move.duration: expected > 0 s, got {out['duration']}")
+        return out
+    if "duration" in request:
+        raise InvalidRequest("move.duration: only with 'q' (use 'times' with 'waypoints')")
+    waypoints = request["waypoints"]
+    if not isinstance(waypoints, list) or not waypoints:
+        raise InvalidRequest("move.waypoints: expected a non-empty list of joint-position lists")
+    rows = [_vector(w, f"move.waypoints[{i}]", n_joints) for i, w in enumerate(waypoints)]
+    if len({len(r) for r in rows}) != 1:
+        raise InvalidRequest("move.waypoints: every waypoint must have the same number of joints")
+    out["waypoints"] = np.array(rows)
+    if "times" in request:
+        times = request["times"]
+        if not isinstance(times, list) or len(times) != len(rows):
+            raise InvalidRequest(f"move.times: expected a list of {len(rows)} numbers (one per waypoint)")
+        out["times"] = np.array([_number(t, f"move.times[{i}]") for i, t in enumerate(times)])
+        if out["times"][0] <= 0 or np.any(np.diff(out["times"]) <= 0):
+            raise InvalidRequest("move.times: expected seconds > 0, strictly increasing")
+    return out
+
+
+def validate(request, n_joints: int | None = None) -> dict:
+    """The handler's view of ``request``, or :class:`InvalidRequest` saying what is wrong."""
+    if not isinstance(request, dict):
+        raise InvalidRequest(f"expected a map with a 'cmd' key, got {type(request).__name__}")
+    cmd = request.get("cmd")
+    if not isinstance(cmd, str) or cmd not in COMMANDS:
+        raise InvalidRequest(f"unknown cmd {cmd!r}; expected one of: {', '.join(COMMANDS)}")
+    unknown = set(request) - COMMANDS[cmd] - {"cmd"}
+    if unknown:
+        allowed = ", ".join(sorted(COMMANDS[cmd])) or "none"
+        raise InvalidRequest(f"{cmd}: unknown field(s) {', '.join(sorted(map(str, unknown)))}; allowed: {allowed}")
+    return _move(request, n_joints) if cmd == "move" else {"cmd": cmd}

@@ -1,0 +1,301 @@
+"""ControlServer: the daemon's end of the control socket, served from the loop thread.
+
+Why ``poll()`` in the loop rather than a thread blocked in ``select()``: the loop must apply
+stop / estop / move at a tick boundary, so a thread would still hand every request to the
+loop and wait for its reply; and while that thread decodes a request it holds the GIL the
+loop may need at its next wake-up. Polled from the loop (once per tick, or every k-th tick,
+in the slack after ``write``/``record``), all the work happens where the loop chooses, and
+each call is bounded: one zero-timeout ``poll`` syscall when idle (nothing else), at most one
+``accept``, one ``recv`` of at most 64 KiB + 4 bytes per ready connection and one request
+handled per connection, at most ``max_clients`` connections. The handler runs in the loop
+thread: it must be quick (record the command for the next tick, build the status reply).
+
+Robustness: a request above the size limit, a frame cut short (the peer closed, or stalled
+for ``request_timeout`` s mid-frame), malformed msgpack, an unknown command or wrong fields
+get ``{"ok": False, "error": ...}``; the handler is not called and the server keeps serving.
+A handler that raises answers ``ok: False`` too (and is logged): the loop never sees it.
+"""
+from __future__ import annotations
+
+import os
+import select
+import socket
+import stat
+import time
+
+import structlog
+
+from rtctl.control_socket.framing import HEADER, decode, encode
+from rtctl.control_socket.requests import MAX_REQUEST_BYTES, InvalidRequest, validate
+from rtctl.errors import ControlSocketError, RtctlError
+
+log = structlog.get_logger("rtctl.control_socket")
+
+_IN = select.POLLIN | select.POLLPRI
+_BROKEN = select.POLLHUP | select.POLLERR | select.POLLNVAL
+_MAX_PENDING_REPLY = 1 << 20  # a client that reads nothing back is dropped past this
+
+
+class _Connection:
+    __slots__ = ("sock", "inbuf", "outbuf", "deadline", "closing")
+
+    def __init__(self, sock: socket.socket, deadline: float):
+        self.sock = sock
+        self.inbuf = bytearray()
+        self.outbuf = bytearray()
+        self.deadline = deadline
+        self.closing = False  # close once outbuf is sent (after a framing error)
+
+
+class ControlServer:
+    """Listen on ``path`` (mode 0600) and answer requests with ``handler(request) -> dict``.
+
+    ``n_joints``, when given, is checked against move targets. A live daemon already on
+    ``path`` → :class:`ControlSocketError`; a stale socket file (nobody listening) is replaced.
+    """
+
+    def __init__(self, path, handler, *, n_joints: int | None = None, max_request: int = MAX_REQUEST_BYTES,
+                 max_clients: int = 8, request_timeout: float = 5.0, idle_timeout: float = 60.0):
+        self.path = os.fspath(path)
+        self.handler = handler
+        self.n_joints = n_joints
+        self.max_request = max_request
+        self.max_clients = max_clients
+        self.request_timeout = request_timeout
+        self.idle_timeout = idle_timeout
+        self._clients: dict[int, _Connection] = {}
+        self._pending: list[int] = []  # connections holding a further (pipelined) frame
+        self._next_sweep = 0.0
+        self._remove_stale_socket()
+        self._listener = self._bind()
+        self._inode = os.stat(self.path).st_ino
+        self._poller = select.poll()
+        self._poller.register(self._listener.fileno(), _IN)
+
+    # ---- start-up and shutdown --------------------------------------------------------
+
+    def _remove_stale_socket(self) -> None:
+        try:
+            mode = os.lstat(self.path).st_mode
+        except FileNotFoundError:
+            return
+        if not stat.S_ISSOCK(mode):
+            raise ControlSocketError(f"{self.path} exists and is not a socket; refusing to replace it")
+        probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        probe.settimeout(1.0)
+        try:
+            probe.connect(self.path)
+        except (ConnectionRefusedError, FileNotFoundError):
+            try:  # nobody listens: a daemon died without cleaning up
+                os.unlink(self.path)
+            except FileNotFoundError:
+                pass
+            log.info("control_socket_stale_replaced", path=self.path)
+            return
+        except OSError as exc:  # busy (timeout) or not ours (permission): leave it alone
+            raise ControlSocketError(f"control socket {self.path} is in use or not ours ({exc}); "
+                                     "is another rtctl daemon running?") from exc
+        finally:
+            probe.close()
+        raise ControlSocketError(f"another rtctl daemon is already listening on {self.path}; "
+                                 "stop it (`rtctl stop`) or choose another --socket")
+
+    def _bind(self) -> socket.socket:
+        sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        old_umask = os.umask(0o177)  # the socket is born 0600: no window with wider permissions
+        try:
+            sock.bind(self.path)
+        except OSError as exc:
+            sock.close()
+            raise ControlSocketError(f"cannot create control socket {self.path}: {exc}") from exc
+        finally:
+            os.umask(old_umask)
+        os.chmod(self.path, 0o600)
+        sock.listen(self.max_clients)
+        sock.setblocking(False)
+        return sock
+
+    def close(self) -> None:
+        """Close every connection and remove the socket file (if it is still ours); safe twice."""
+        if self._listener is None:
+            return
+        for fd in list(self._clients):
+            self._drop(fd)
+        self._listener.close()
+        self._listener = None
+        try:
+            if os.stat(self.path).st_ino == self._inode:
+                os.unlink(self.path)
+        except FileNotFoundError:
+            pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # ---- per tick ---------------------------------------------------------------------
+
+    def poll(self) -> int:
+        """Serve what is ready without blocking; returns the number of requests handled."""
+        events = self._poller.poll(0)
+        if not events and not self._clients:
+            return 0
+        handled = 0
+        if self._pending:
+            pending, self._pending = self._pending, []
+            for fd in pending:
+                if fd in self._clients:
+                    handled += self._handle_frame(fd, self._clients[fd])
+        listener_fd = self._listener.fileno()
+        for fd, event in events:
+            if fd == listener_fd:
+                self._accept()
+                continue
+            conn = self._clients.get(fd)
+            if conn is None:
+                continue
+            if event & select.POLLOUT:
+                self._send(fd, conn)
+            if fd not in self._clients:
+                continue
+            if conn.closing:
+                if event & _BROKEN:
+                    self._drop(fd)
+            elif event & (_IN | _BROKEN):
+                handled += self._receive(fd, conn)
+        if self._clients:
+            self._sweep()
+        return handled
+
+    def _accept(self) -> None:
+        try:
+            sock, _ = self._listener.accept()
+        except (BlockingIOError, InterruptedError):
+            return
+        if len(self._clients) >= self.max_clients:
+            sock.setblocking(False)
+            try:
+                sock.send(encode({"ok": False, "error": f"too many control connections (max {self.max_clients})"}))
+            except OSError:
+                pass
+            sock.close()
+            return
+        sock.setblocking(False)
+        self._clients[sock.fileno()] = _Connection(sock, time.monotonic() + self.idle_timeout)
+        self._poller.register(sock, _IN)
+
+    def _receive(self, fd: int, conn: _Connection) -> int:
+        if len(conn.inbuf) >= self.max_request + HEADER.size:
+            return 0  # a whole frame is buffered already: serve it (via _pending) before reading on
+        try:
+            data = conn.sock.recv(self.max_request + HEADER.size)
+        except (BlockingIOError, InterruptedError):
+            return 0
+        except OSError:
+            data = b""
+        if not data:  # the peer closed (or shut down its sending side)
+            if conn.inbuf:
+                self._fail(fd, conn, self._truncated_message(conn.inbuf))
+            else:
+                self._drop(fd)
+            return 0
+        conn.inbuf += data
+        return self._handle_frame(fd, conn)
+
+    def _handle_frame(self, fd: int, conn: _Connection) -> int:
+        if len(conn.inbuf) < HEADER.size:
+            conn.deadline = time.monotonic() + self.request_timeout
+            return 0
+        (length,) = HEADER.unpack_from(conn.inbuf)
+        if length > self.max_request:
+            self._fail(fd, conn, f"request of {length} bytes exceeds the {self.max_request}-byte limit")
+            return 0
+        if len(conn.inbuf) < HEADER.size + length:
+            conn.deadline = time.monotonic() + self.request_timeout
+            return 0
+        body = bytes(conn.inbuf[HEADER.size:HEADER.size + length])
+        del conn.inbuf[:HEADER.size + length]
+        self._reply(fd, conn, self._answer(body))
+        if conn.inbuf and fd in self._clients:
+            # Pipelined bytes: poll() has no news about them, and one request per connection
+            # per call keeps the call bounded, so they are served at the next call.
+            self._pending.append(fd)
+        conn.deadline = time.monotonic() + (self.request_timeout if conn.inbuf else self.idle_timeout)
+        return 1
+
+    def _answer(self, body: bytes) -> dict:
+        try:
+            request = validate(decode(body), self.n_joints)
+        except (InvalidRequest, ValueError) as exc:
+            return {"ok": False, "error": str(exc)}
+        try:
+            reply = self.handler(request)
+        except RtctlError as exc:
+            return {"ok": False, "error": str(exc)}
+        except Exception as exc:  # a bug in the handler must not reach the loop
+            log.exception("control_handler_failed", cmd=request["cmd"])
+            return {"ok": False, "error": f"internal error handling {request['cmd']!r}: {exc!r}"}
+        reply = {} if reply is None else dict(reply)
+        reply.setdefault("ok", True)
+        return reply
+
+    def _reply(self, fd: int, conn: _Connection, reply: dict) -> None:
+        try:
+            frame = encode(reply)
+        except (TypeError, ValueError) as exc:
+            log.error("control_reply_unencodable", error=str(exc))
+            frame = encode({"ok": False, "error": f"reply could not be encoded: {exc}"})
+        conn.outbuf += frame
+        self._send(fd, conn)
+
+    def _send(self, fd: int, conn: _Connection) -> None:
+        try:
+            sent = conn.sock.send(conn.outbuf) if conn.outbuf else 0
+        except (BlockingIOError, InterruptedError):
+            sent = 0
+        except OSError:  # the client went away; nothing more to tell it
+            self._drop(fd)
+            return
+        del conn.outbuf[:sent]
+        if len(conn.outbuf) > _MAX_PENDING_REPLY or (conn.closing and not conn.outbuf):
+            self._drop(fd)
+            return
+        # A closing connection is no longer read; an unsent reply waits for POLLOUT.
+        self._poller.modify(conn.sock, (0 if conn.closing else _IN) | (select.POLLOUT if conn.outbuf else 0))
+
+    def _fail(self, fd: int, conn: _Connection, error: str) -> None:
+        """A framing error: the stream cannot be resynchronised, so reply and close."""
+        conn.closing = True
+        conn.inbuf.clear()
+        self._reply(fd, conn, {"ok": False, "error": error})
+
+    def _truncated_message(self, inbuf: bytearray) -> str:
+        if len(inbuf) < HEADER.size:
+            return f"truncated request: {len(inbuf)} of the 4 length bytes"
+        (length,) = HEADER.unpack_from(inbuf)
+        return f"truncated request: {len(inbuf) - HEADER.size} of {length} bytes"
+
+    def _sweep(self) -> None:
+        """Time out stalled connections; at most every 0.1 s, and only while clients exist."""
+        now = time.monotonic()
+        if now < self._next_sweep:
+            return
+        self._next_sweep = now + 0.1
+        for fd, conn in list(self._clients.items()):
+            if now < conn.deadline:
+                continue
+            if conn.inbuf and not conn.closing:
+                self._fail(fd, conn, self._truncated_message(conn.inbuf) + f" after {self.request_timeout:g} s")
+                conn.deadline = now + 1.0  # then give the reply a second to leave
+            else:
+                self._drop(fd)
+
+    def _drop(self, fd: int) -> None:
+        conn = self._clients.pop(fd)
+        try:
+            self._poller.unregister(fd)
+        except KeyError:
+            pass
+        conn.sock.close()
