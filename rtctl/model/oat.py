@@ -51,12 +51,10 @@ def from_oat(o: float, a: float, t: float) -> np.ndarray:
 def to_oat(R) -> tuple[float, float, float]:
     """(O, A, T) of a rotation matrix, with A in [−π/2, π/2], T = 0 where |A| = 90°."""
     M = R_REFERENCE.T @ np.asarray(R, dtype=float)[:3, :3]
-    if math.hypot(M[1, 0], M[1, 1]) < SINGULAR_TOLERANCE:
-        t = 0.0
-        N = M
-    else:
-        t = math.atan2(M[1, 0], M[1, 1])
-        N = M @ rot_z(t).T
+    if math.hypot(M[1, 0], M[1, 1]) < SINGULAR_TOLERANCE:  # |A| = 90°: M = Rot(y, O) Rot(x, ±90°)
+        return _wrap(math.atan2(-M[2, 0], M[0, 0])), math.copysign(math.pi / 2, -M[1, 2]), 0.0
+    t = math.atan2(M[1, 0], M[1, 1])
+    N = M @ rot_z(t).T
     o = math.atan2(-N[2, 0], N[0, 0])
     a = math.atan2(-N[1, 2], N[1, 1])
-    return _wrap(o), _wrap(a), _wrap(t)
+    return _wrap(o), a, _wrap(t)
