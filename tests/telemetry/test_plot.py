@@ -1,0 +1,69 @@
+"""rtctl.plot draws a readable PNG from a telemetry file, and says what to install without matplotlib."""
+import sys
+
+import numpy as np
+import pytest
+
+from rtctl.errors import RtctlError
+from rtctl.telemetry import Recorder
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def synthetic_run(path, schema_extra=(), n=1500):
+    """A 6-joint run: q lags a sinusoidal q_des, estimates converge, timings are log-normal."""
+    schema = {"t": ((), "f8"), "q": (6, "f8"), "q_des": (6, "f8"), "tau": (6, "f8"), **dict(schema_extra)}
+    rng = np.random.default_rng(0)
+    rec = Recorder(path, schema, {"config": "configs/puma560_sim.toml", "rate_hz": 1000.0}, wait_when_full=True)
+    phase = np.arange(6)
+    for k in range(n):
+        t = k / 1000
+        rec.row["t"][()] = t
+        rec.row["q_des"][:] = np.sin(2 * t + phase)
+        rec.row["q"][:] = np.sin(2 * (t - 0.02) + phase)
+        rec.row["tau"][:] = 10 * np.cos(2 * t + phase)
+        if "phase_ns" in schema:
+            rec.row["phase_ns"][:] = rng.lognormal(np.log([3e3, 20e3, 2e3, 3e3, 1e3]), 0.3)
+            rec.row["lateness_ns"][()] = rng.lognormal(np.log(10e3), 0.5)
+            rec.row["params_hat"][:] = np.exp(-t) * np.linspace(-1, 1, 10) + 1
+            rec.row["s"][:] = 0.1 * np.exp(-t) * np.cos(t + phase)
+        rec.commit()
+    rec.close()
+
+
+FULL = {"phase_ns": (5, "i8"), "lateness_ns": ((), "i8"), "params_hat": (10, "f8"), "s": (6, "f8")}
+
+
+def test_plot_run_writes_a_png(tmp_path):
+    pytest.importorskip("matplotlib")
+    from rtctl.plot import _panels, plot_run
+    from rtctl.telemetry import read
+
+    synthetic_run(tmp_path / "run.rtt", FULL.items())
+    plot_run(tmp_path / "run.rtt", tmp_path / "run.png")
+    data = (tmp_path / "run.png").read_bytes()
+    assert data.startswith(PNG_SIGNATURE) and len(data) > 50_000
+    # 6 tracking + error + torque + timing + s + estimates
+    assert len(_panels(read(tmp_path / "run.rtt"))) == 11
+
+
+def test_plot_run_with_only_positions(tmp_path):
+    pytest.importorskip("matplotlib")
+    from rtctl.plot import plot_run
+
+    rec = Recorder(tmp_path / "run.rtt", {"q": ((), "f8")}, wait_when_full=True)
+    for k in range(100):
+        rec.row["q"][()] = k
+        rec.commit()
+    rec.close()
+    plot_run(tmp_path / "run.rtt", tmp_path / "run.png")
+    assert (tmp_path / "run.png").read_bytes().startswith(PNG_SIGNATURE)
+
+
+def test_missing_matplotlib_says_what_to_install(tmp_path, monkeypatch):
+    from rtctl.plot import plot_run
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setitem(sys.modules, "matplotlib.figure", None)
+    with pytest.raises(RtctlError, match=r"pip install 'rtctl\[plot\]'"):
+        plot_run(tmp_path / "run.rtt", tmp_path / "run.png")
