@@ -25,15 +25,18 @@ Hot path: :func:`pack_command_into` writes into a caller-owned buffer (e.g. a re
 """
 from __future__ import annotations
 
+import dataclasses
 import enum
 import math
+import struct
 from dataclasses import dataclass
 from typing import NamedTuple
 
 from rtctl.errors import ProtocolError
 
-P_BITS, V_BITS, KP_BITS, KD_BITS, T_BITS, EFFORT_BITS = 16, 12, 12, 12, 12, 12
 COMMAND_LENGTH = 8
+_U64 = struct.Struct(">Q")  # a command is one big-endian 64-bit word
+_U16_U32 = struct.Struct(">HI")  # the common six reply bytes
 SPECIAL_PREFIX = b"\xff" * 7
 DEFAULT_MASTER_ID = 0x000
 
@@ -87,6 +90,9 @@ class MitDriveModel:
                 raise ValueError(f"{self.name}: {field} range must be finite with min < max, got {(lo, hi)}")
         if not (math.isfinite(self.torque_constant) and self.torque_constant > 0):
             raise ValueError(f"{self.name}: torque_constant must be positive")
+        # (min, max, span) per field, unpacked in one go on the hot path
+        q = tuple((lo, hi, hi - lo) for lo, hi in (self.p, self.v, self.kp, self.kd, self.t, self.effort))
+        object.__setattr__(self, "_q", q)
 
     @property
     def reply_length(self) -> int:
@@ -122,18 +128,7 @@ def drive_model_from_table(table) -> MitDriveModel:
     fmt = table.str("reply_format", base.reply_format.value, choices=tuple(f.value for f in ReplyFormat))
     changes["reply_format"] = ReplyFormat(fmt)
     changes["torque_constant"] = table.float("torque_constant", base.torque_constant, positive=True)
-    return MitDriveModel(**{**base.__dict__, **changes})
-
-
-# -- quantisation (the firmware's float_to_uint / uint_to_float) ----------------------------
-def float_to_uint(x: float, lo: float, hi: float, bits: int) -> int:
-    """Clamp to [lo, hi] and truncate, as the firmware does."""
-    x = lo if x < lo else (hi if x > hi else x)
-    return int((x - lo) * ((1 << bits) - 1) / (hi - lo))
-
-
-def uint_to_float(x_int: int, lo: float, hi: float, bits: int) -> float:
-    return x_int * (hi - lo) / ((1 << bits) - 1) + lo
+    return dataclasses.replace(base, **changes)
 
 
 # -- commands -----------------------------------------------------------------------------
@@ -147,21 +142,17 @@ class MitCommand(NamedTuple):
 
 def pack_command_into(buf, model: MitDriveModel, p: float, v: float, kp: float, kd: float, t: float) -> None:
     """Write the 8-byte command into ``buf[0:8]`` (bytearray, memoryview, uint8 array)."""
-    p_int = float_to_uint(p, model.p[0], model.p[1], P_BITS)
-    v_int = float_to_uint(v, model.v[0], model.v[1], V_BITS)
-    kp_int = float_to_uint(kp, model.kp[0], model.kp[1], KP_BITS)
-    kd_int = float_to_uint(kd, model.kd[0], model.kd[1], KD_BITS)
-    t_int = float_to_uint(t, model.t[0], model.t[1], T_BITS)
-    if p_int == 0xFFFF and v_int == 0xFFF and kp_int == 0xFFF and kd_int == 0xFFF and t_int >= 0xF00:
-        p_int = 0xFFFE  # b0..b6 would all be FF: a special frame (see module docstring)
-    buf[0] = p_int >> 8
-    buf[1] = p_int & 0xFF
-    buf[2] = v_int >> 4
-    buf[3] = ((v_int & 0xF) << 4) | (kp_int >> 8)
-    buf[4] = kp_int & 0xFF
-    buf[5] = kd_int >> 4
-    buf[6] = ((kd_int & 0xF) << 4) | (t_int >> 8)
-    buf[7] = t_int & 0xFF
+    # the firmware's float_to_uint, inlined (this runs per joint per tick): clamp, then truncate
+    (plo, phi, psp), (vlo, vhi, vsp), (kplo, kphi, kpsp), (kdlo, kdhi, kdsp), (tlo, thi, tsp), _ = model._q
+    p_int = int(((plo if p < plo else (phi if p > phi else p)) - plo) * 65535 / psp)
+    v_int = int(((vlo if v < vlo else (vhi if v > vhi else v)) - vlo) * 4095 / vsp)
+    kp_int = int(((kplo if kp < kplo else (kphi if kp > kphi else kp)) - kplo) * 4095 / kpsp)
+    kd_int = int(((kdlo if kd < kdlo else (kdhi if kd > kdhi else kd)) - kdlo) * 4095 / kdsp)
+    t_int = int(((tlo if t < tlo else (thi if t > thi else t)) - tlo) * 4095 / tsp)
+    word = (p_int << 48) | (v_int << 36) | (kp_int << 24) | (kd_int << 12) | t_int
+    if word >> 8 == 0xFF_FFFF_FFFF_FFFF:
+        word -= 1 << 48  # p_int 0xFFFF → 0xFFFE: b0..b6 would all be FF, a special frame
+    _U64.pack_into(buf, 0, word)
 
 
 def pack_command(model: MitDriveModel, p: float, v: float, kp: float, kd: float, t: float) -> bytes:
@@ -172,13 +163,8 @@ def pack_command(model: MitDriveModel, p: float, v: float, kp: float, kd: float,
 
 def command_ints(data) -> tuple[int, int, int, int, int]:
     """The five raw fields (p, v, kp, kd, t) of a command frame."""
-    return (
-        (data[0] << 8) | data[1],
-        (data[2] << 4) | (data[3] >> 4),
-        ((data[3] & 0xF) << 8) | data[4],
-        (data[5] << 4) | (data[6] >> 4),
-        ((data[6] & 0xF) << 8) | data[7],
-    )
+    (w,) = _U64.unpack_from(data)
+    return w >> 48, (w >> 36) & 0xFFF, (w >> 24) & 0xFFF, (w >> 12) & 0xFFF, w & 0xFFF
 
 
 def unpack_command(data, model: MitDriveModel) -> MitCommand:
@@ -187,13 +173,14 @@ def unpack_command(data, model: MitDriveModel) -> MitCommand:
         raise ProtocolError(f"MIT command: expected {COMMAND_LENGTH} bytes, got {len(data)}")
     if data[:7] == SPECIAL_PREFIX:
         raise ProtocolError(f"MIT command: {bytes(data).hex(' ')} is a special frame")
-    p, v, kp, kd, t = command_ints(data)
+    (plo, _, psp), (vlo, _, vsp), (kplo, _, kpsp), (kdlo, _, kdsp), (tlo, _, tsp), _ = model._q
+    (w,) = _U64.unpack_from(data)
     return MitCommand(
-        uint_to_float(p, model.p[0], model.p[1], P_BITS),
-        uint_to_float(v, model.v[0], model.v[1], V_BITS),
-        uint_to_float(kp, model.kp[0], model.kp[1], KP_BITS),
-        uint_to_float(kd, model.kd[0], model.kd[1], KD_BITS),
-        uint_to_float(t, model.t[0], model.t[1], T_BITS),
+        (w >> 48) * psp / 65535 + plo,
+        ((w >> 36) & 0xFFF) * vsp / 4095 + vlo,
+        ((w >> 24) & 0xFFF) * kpsp / 4095 + kplo,
+        ((w >> 12) & 0xFFF) * kdsp / 4095 + kdlo,
+        (w & 0xFFF) * tsp / 4095 + tlo,
     )
 
 
@@ -239,20 +226,18 @@ def pack_reply_into(
     enabled: bool = True,
 ) -> int:
     """Write a reply (drive side) into ``buf``; returns its length (6 or 8)."""
-    p_int = float_to_uint(p, model.p[0], model.p[1], P_BITS)
-    v_int = float_to_uint(v, model.v[0], model.v[1], V_BITS)
-    i_int = float_to_uint(effort, model.effort[0], model.effort[1], EFFORT_BITS)
+    (plo, phi, psp), (vlo, vhi, vsp), _, _, _, (elo, ehi, esp) = model._q
+    p_int = int(((plo if p < plo else (phi if p > phi else p)) - plo) * 65535 / psp)
+    v_int = int(((vlo if v < vlo else (vhi if v > vhi else v)) - vlo) * 4095 / vsp)
+    i_int = int(((elo if effort < elo else (ehi if effort > ehi else effort)) - elo) * 4095 / esp)
     fmt = model.reply_format
     if fmt is ReplyFormat.DAMIAO:
         state = error if error else int(enabled)
-        buf[0] = (drive_id & 0x0F) | ((state & 0x0F) << 4)
+        head = (drive_id & 0x0F) | ((state & 0x0F) << 4)
     else:
-        buf[0] = drive_id & 0xFF
-    buf[1] = p_int >> 8
-    buf[2] = p_int & 0xFF
-    buf[3] = v_int >> 4
-    buf[4] = ((v_int & 0xF) << 4) | (i_int >> 8)
-    buf[5] = i_int & 0xFF
+        head = drive_id & 0xFF
+    word = (head << 40) | (p_int << 24) | (v_int << 12) | i_int  # b0..b5
+    _U16_U32.pack_into(buf, 0, word >> 32, word & 0xFFFF_FFFF)
     if fmt is ReplyFormat.KATZ:
         return 6
     temp = max(-128, min(127, int(temperature))) if fmt is ReplyFormat.CUBEMARS else max(0, min(255, int(temperature)))
@@ -283,13 +268,12 @@ def reply_drive_id(data, model: MitDriveModel) -> int:
 def unpack_reply_into(data, model: MitDriveModel, out, row: int) -> None:
     """Decode a reply into ``out[row, 0:5]`` (columns ``REPLY_*``); call :func:`reply_drive_id`
     first, which checks the length and tells which row."""
-    p_int = (data[1] << 8) | data[2]
-    v_int = (data[3] << 4) | (data[4] >> 4)
-    i_int = ((data[4] & 0xF) << 8) | data[5]
+    (plo, _, psp), (vlo, _, vsp), _, _, _, (elo, _, esp) = model._q
+    hi, lo = _U16_U32.unpack_from(data)  # b0..b5
     r = out[row]
-    r[REPLY_POSITION] = uint_to_float(p_int, model.p[0], model.p[1], P_BITS)
-    r[REPLY_VELOCITY] = uint_to_float(v_int, model.v[0], model.v[1], V_BITS)
-    r[REPLY_EFFORT] = uint_to_float(i_int, model.effort[0], model.effort[1], EFFORT_BITS)
+    r[REPLY_POSITION] = (((hi & 0xFF) << 8) | (lo >> 24)) * psp / 65535 + plo
+    r[REPLY_VELOCITY] = ((lo >> 12) & 0xFFF) * vsp / 4095 + vlo
+    r[REPLY_EFFORT] = (lo & 0xFFF) * esp / 4095 + elo
     fmt = model.reply_format
     if fmt is ReplyFormat.KATZ:
         r[REPLY_TEMPERATURE] = math.nan
