@@ -54,7 +54,7 @@ def _steal_jiffies() -> int | None:
 def bench_loop_timing(rate_hz: float = 1000.0, seconds: float = 10.0, spin_margin_us: float = 200.0,
                       rt: RtSettings | None = None) -> dict:
     """The paced empty loop plus the bookkeeping costs; ``rt`` knobs are applied to this process first."""
-    knobs = [r.as_dict() for r in apply_rt(rt)] if rt is not None else []
+    knobs = [r.as_dict() for r in apply_rt(rt)] if rt is not None else []  # reported, not enforced
     lockstep = empty_loop(rate_hz, 2.0, realtime_factor=0)
     record_us = record_cost_us()
     steal0 = _steal_jiffies()

@@ -2,9 +2,11 @@
 
 ``apply_rt(settings)`` tries the requested knobs and returns one :class:`KnobReport` per
 knob (applied / off / not permitted / unsupported / failed, with the reason and the fix).
-With ``settings.enforce`` any requested knob that did not apply raises
-:class:`~rtctl.errors.RealtimeError` naming it and the fix (``--enforce-rt``); knobs not
-requested are not enforced. Call it once, right before the loop starts: GC freeze must
+With ``enforce=True`` (``--enforce-rt``) any requested knob that did not apply raises
+:class:`~rtctl.errors.RealtimeError` naming it and the fix; knobs not requested are not
+enforced. ``settings`` is any object with the fields of :class:`RtSettings` (the run
+configuration's ``[loop.rt]`` table has them); a zero / empty / False field means "leave
+it alone". Call it once, right before the loop starts: GC freeze must
 come after the set-up has allocated everything, and mlockall pins what exists by then.
 """
 from __future__ import annotations
@@ -47,14 +49,13 @@ class KnobStatus(str, enum.Enum):
 
 @dataclasses.dataclass(frozen=True)
 class RtSettings:
-    """What to apply. None / False leaves a knob off."""
+    """What to apply; each field's zero value leaves its knob alone."""
 
-    fifo_priority: int | None = None  # SCHED_FIFO priority, 1..99
-    cpus: tuple[int, ...] | None = None  # CPU affinity
-    lock_memory: bool = False  # mlockall(MCL_CURRENT | MCL_FUTURE)
-    timer_slack_ns: int | None = None  # prctl(PR_SET_TIMERSLACK); ≥ 1 (0 means "default")
-    freeze_gc: bool = False  # gc.freeze(); gc.disable()
-    enforce: bool = False  # a requested knob that does not apply is an error
+    priority: int = 0  # SCHED_FIFO priority, 1..99
+    cpus: tuple[int, ...] = ()  # CPU affinity
+    mlockall: bool = False  # mlockall(MCL_CURRENT | MCL_FUTURE)
+    timer_slack_ns: int = 0  # prctl(PR_SET_TIMERSLACK), ≥ 1 ns (the kernel reads 0 as "default")
+    gc_freeze: bool = False  # gc.freeze(); gc.disable()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -151,8 +152,7 @@ def _timer_slack(ns: int) -> KnobReport:
     if platform.system() != "Linux":
         return KnobReport(name, KnobStatus.UNSUPPORTED, "PR_SET_TIMERSLACK is Linux-only")
     if ns < 1:
-        return KnobReport(name, KnobStatus.FAILED, f"{ns} ns: 0 restores the default slack",
-                          "use 1 ns for the tightest wake-ups")
+        return KnobReport(name, KnobStatus.FAILED, f"{ns} ns is not a slack", "use 1 ns for the tightest wake-ups")
     if _libc().prctl(PR_SET_TIMERSLACK, ctypes.c_ulong(ns), 0, 0, 0) != 0:
         return KnobReport(name, KnobStatus.FAILED, os.strerror(ctypes.get_errno()))
     return KnobReport(name, KnobStatus.APPLIED,
@@ -167,21 +167,21 @@ def _freeze_gc() -> KnobReport:
                       f"{gc.get_freeze_count()} objects frozen, automatic collection off")
 
 
-def apply_rt(settings: RtSettings) -> list[KnobReport]:
+def apply_rt(settings, *, enforce: bool = False) -> list[KnobReport]:
     """Apply the requested knobs (affinity, mlockall, timer slack, SCHED_FIFO, GC freeze —
     in that order) and report every knob; raise RealtimeError if ``enforce`` and any failed."""
     s = settings
     steps = [
-        ("cpu_affinity", s.cpus is not None, lambda: _affinity(tuple(s.cpus))),
-        ("mlockall", s.lock_memory, _mlockall),
-        ("timer_slack", s.timer_slack_ns is not None, lambda: _timer_slack(s.timer_slack_ns)),
-        ("sched_fifo", s.fifo_priority is not None, lambda: _fifo(s.fifo_priority)),
-        ("gc_freeze", s.freeze_gc, _freeze_gc),
+        ("cpu_affinity", bool(s.cpus), lambda: _affinity(tuple(s.cpus))),
+        ("mlockall", s.mlockall, _mlockall),
+        ("timer_slack", bool(s.timer_slack_ns), lambda: _timer_slack(s.timer_slack_ns)),
+        ("sched_fifo", bool(s.priority), lambda: _fifo(s.priority)),
+        ("gc_freeze", s.gc_freeze, _freeze_gc),
     ]
     reports = [apply() if wanted else KnobReport(name, KnobStatus.OFF, "not requested")
                for name, wanted, apply in steps]
     failed = [r for r in reports if r.status not in (KnobStatus.APPLIED, KnobStatus.OFF)]
-    if s.enforce and failed:
+    if enforce and failed:
         raise RealtimeError("; ".join(f"{r.knob}: {r.status.value}: {r.detail} — fix: {r.fix or 'n/a'}"
                                       for r in failed))
     return reports

@@ -24,8 +24,9 @@ CHILD = textwrap.dedent("""
     if args.pop("drop_root", False) and os.getuid() == 0:
         os.setgid(65534); os.setuid(65534)                 # loses every capability
     policy0, slack0 = os.sched_getscheduler(0), timer_slack_ns()
+    enforce = args.pop("enforce", False)
     try:
-        reports = [r.as_dict() for r in apply_rt(RtSettings(**args))]
+        reports = [r.as_dict() for r in apply_rt(RtSettings(**args), enforce=enforce)]
         error = None
     except RealtimeError as e:
         reports, error = None, str(e)
@@ -61,7 +62,7 @@ def test_nothing_requested_reports_every_knob_off_and_changes_nothing():
 
 def test_each_report_matches_what_the_process_observes():
     cpu = sorted(os.sched_getaffinity(0))[-1]
-    res = child(fifo_priority=10, cpus=[cpu], lock_memory=True, timer_slack_ns=1234, freeze_gc=True)
+    res = child(priority=10, cpus=[cpu], mlockall=True, timer_slack_ns=1234, gc_freeze=True)
     k = by_knob(res)
     assert k["gc_freeze"]["status"] == "applied" and not res["gc_enabled"] and res["frozen"] > 0
     assert k["cpu_affinity"]["status"] == "applied" and res["cpus"] == [cpu]
@@ -79,7 +80,7 @@ def test_each_report_matches_what_the_process_observes():
 
 
 def test_without_privilege_the_knobs_are_not_permitted_and_name_the_fix():
-    res = child(fifo_priority=50, lock_memory=True, drop_root=True,
+    res = child(priority=50, mlockall=True, drop_root=True,
                 rlimits={"RLIMIT_RTPRIO": 0, "RLIMIT_MEMLOCK": 0})
     k = by_knob(res)
     assert k["sched_fifo"]["status"] == "not permitted" and res["policy"] == res["policy0"]
@@ -89,7 +90,7 @@ def test_without_privilege_the_knobs_are_not_permitted_and_name_the_fix():
 
 
 def test_enforce_refuses_to_start_naming_each_knob_and_its_fix():
-    res = child(fifo_priority=50, lock_memory=True, timer_slack_ns=1, enforce=True, drop_root=True,
+    res = child(priority=50, mlockall=True, timer_slack_ns=1, enforce=True, drop_root=True,
                 rlimits={"RLIMIT_RTPRIO": 0, "RLIMIT_MEMLOCK": 0})
     assert res["reports"] is None
     assert "sched_fifo: not permitted: rtprio limit 0" in res["error"]
@@ -98,14 +99,21 @@ def test_enforce_refuses_to_start_naming_each_knob_and_its_fix():
 
 
 @pytest.mark.parametrize("settings, knob", [
-    (RtSettings(fifo_priority=100), "sched_fifo"),
-    (RtSettings(fifo_priority=0), "sched_fifo"),
+    (RtSettings(priority=100), "sched_fifo"),
+    (RtSettings(priority=-3), "sched_fifo"),
     (RtSettings(cpus=(4095,)), "cpu_affinity"),
-    (RtSettings(timer_slack_ns=0), "timer_slack"),
+    (RtSettings(timer_slack_ns=-1), "timer_slack"),
 ])
 def test_impossible_values_fail_before_touching_the_process(settings, knob):
     # safe in-process: each fails validation or is refused by the kernel, changing nothing
     report = {r.knob: r for r in apply_rt(settings)}[knob]
     assert report.status is KnobStatus.FAILED and report.fix
     with pytest.raises(RealtimeError, match=knob):
-        apply_rt(RtSettings(**{**settings.__dict__, "enforce": True}))
+        apply_rt(settings, enforce=True)
+
+
+def test_zero_values_leave_the_knobs_alone_and_any_object_with_the_fields_will_do():
+    class LoopRt:  # e.g. the run configuration's [loop.rt], which has its own dataclass
+        priority, cpus, mlockall, timer_slack_ns, gc_freeze = 0, (), False, 0, False
+
+    assert {r.status for r in apply_rt(LoopRt(), enforce=True)} == {KnobStatus.OFF}
