@@ -8,7 +8,8 @@ tool point and the angular velocity, both in base coordinates (eq. 25).
 Public API: :func:`fk`, :func:`link_poses`, :func:`jacobian`, :func:`tool_twist`,
 :func:`joint_rates`, :func:`to_oat` / :func:`from_oat` (orientation angles about the
 orientation reference frame, :mod:`rtctl.model.oat`), :func:`ik` and :func:`ik_solutions`
-(closed form for PUMA-type arms, :mod:`rtctl.model.ik_puma`; damped least squares otherwise,
+(closed form for PUMA-type arms, :mod:`rtctl.model.ik_puma`, whose branches are
+:class:`ArmConfig` and :func:`configuration`; damped Levenberg-Marquardt otherwise,
 :mod:`rtctl.model.ik_numeric`).
 """
 from __future__ import annotations
@@ -21,7 +22,7 @@ from numba import njit
 
 from rtctl.errors import KinematicsError
 from rtctl.model import ik_puma
-from rtctl.model.ik_puma import Arm, ArmConfig, Elbow, IKSolution, Wrist
+from rtctl.model.ik_puma import Arm, ArmConfig, Elbow, IKSolution, Wrist, configuration
 from rtctl.model.oat import from_oat, to_oat
 from rtctl.model.robot import PRISMATIC, Model
 
@@ -227,4 +228,5 @@ def ik(model: Model, pose, q_seed=None, config=None, *, method: str = "auto",
 
 
 __all__ = ["fk", "link_poses", "jacobian", "tool_twist", "joint_rates", "RateInfo",
-           "to_oat", "from_oat", "ik", "ik_solutions", "ArmConfig", "Arm", "Elbow", "Wrist", "IKSolution"]
+           "to_oat", "from_oat", "ik", "ik_solutions", "configuration", "ArmConfig", "Arm", "Elbow", "Wrist",
+           "IKSolution"]
