@@ -94,8 +94,8 @@ class Recorder:
         self._ring_bytes = self._ring.rows
         self._stored = 0
         self._dropped = 0
-        self._i = 0  # next row within the current block
         self._block_no = 0  # index of the current block in the run (not in the ring)
+        self._block_start = 0  # byte offset of the current block in the ring
         self._offset = 0  # byte offset of the next row in the ring
 
     def _start_writer(self, file_fd: int):
@@ -148,26 +148,29 @@ class Recorder:
 
     def commit(self) -> bool:
         """Store the staging row as the next row; False if it had to be dropped (see module doc)."""
-        if self._i == 0 and self._block_no - self._ctl[RELEASED] >= self.n_blocks:
+        offset = self._offset
+        if offset == self._block_start and self._block_no - self._ctl[RELEASED] >= self.n_blocks:
             if not (self.wait_when_full and self._wait_for_block()):
                 self._dropped += 1
                 self._ctl[DROPPED] = self._dropped
                 return False
-        offset = self._offset
-        self._ring_bytes[offset:offset + self._row_bytes] = self._staging_bytes  # memoryview: ~2x numpy's speed
-        self._stored += 1
-        self._ctl[STORED] = self._stored
-        self._i += 1
-        self._offset = offset + self._row_bytes
-        if self._i == self.block_rows:
-            self._i = 0
-            self._block_no += 1
-            self._offset = (self._block_no % self.n_blocks) * self._block_bytes
-            try:
-                os.write(self._pipe_fd, _WAKE)
-            except (BlockingIOError, BrokenPipeError):
-                pass  # pipe full: the writer is awake anyway; gone: close() reports it
+        end = offset + self._row_bytes
+        self._ring_bytes[offset:end] = self._staging_bytes  # memoryview copy: ~2x numpy's speed
+        self._stored = stored = self._stored + 1
+        self._ctl[STORED] = stored  # the row now belongs to the writer, even if this process dies
+        if end == self._block_start + self._block_bytes:
+            self._next_block()
+        else:
+            self._offset = end
         return True
+
+    def _next_block(self) -> None:
+        self._block_no += 1
+        self._offset = self._block_start = (self._block_no % self.n_blocks) * self._block_bytes
+        try:
+            os.write(self._pipe_fd, _WAKE)
+        except (BlockingIOError, BrokenPipeError):
+            pass  # pipe full: the writer is awake anyway; gone: close() reports it
 
     def _wait_for_block(self) -> bool:
         while self._block_no - self._ctl[RELEASED] >= self.n_blocks:

@@ -51,7 +51,9 @@ class Ring:
         else:  # not Linux: an unlinked temporary file serves the same purpose
             fd = os.dup(tempfile.TemporaryFile().fileno())
         os.ftruncate(fd, cls.size(row_dtype, block_rows, n_blocks))
-        return cls(fd, row_dtype, block_rows, n_blocks)
+        ring = cls(fd, row_dtype, block_rows, n_blocks)
+        ring.rows[:] = bytes(len(ring.rows))  # fault every page in now, not one per few ticks later
+        return ring
 
     def close(self) -> None:
         self.blocks = None

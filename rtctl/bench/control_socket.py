@@ -1,0 +1,63 @@
+"""``rtctl bench control-socket``: what ``ControlServer.poll()`` costs the loop per call.
+
+Idle (no connection), with one idle client connected (the sweep's clock read is added), and
+answering one ``status`` request (decode, validate, handler, encode, send) — the cost of the
+tick in which a request arrives.
+"""
+from __future__ import annotations
+
+import os
+import socket
+import tempfile
+import time
+
+import numpy as np
+
+from rtctl.control_socket import ControlServer
+from rtctl.control_socket.framing import encode
+
+
+def _percentiles(ns) -> dict:
+    us = np.asarray(ns) / 1e3
+    return {"p50_us": float(np.percentile(us, 50)), "p99_us": float(np.percentile(us, 99)), "max_us": float(us.max())}
+
+
+def _time_polls(server: ControlServer, n: int) -> dict:
+    ns = np.zeros(n, np.int64)
+    for k in range(n):
+        a = time.perf_counter_ns()
+        server.poll()
+        ns[k] = time.perf_counter_ns() - a
+    return _percentiles(ns)
+
+
+def bench_control_socket(polls: int = 20000, requests: int = 500) -> dict:
+    status = {"state": "running", "ticks": 0, "q": [0.0] * 6}
+    with tempfile.TemporaryDirectory(prefix="rtctl-bench-") as directory:
+        server = ControlServer(os.path.join(directory, "ctl.sock"), lambda request: status)
+        try:
+            idle = _time_polls(server, polls)
+            client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+            client.connect(server.path)
+            server.poll()  # accept
+            connected = _time_polls(server, polls)
+            frame, ns = encode({"cmd": "status"}), []
+            for _ in range(requests):
+                client.sendall(frame)
+                a = time.perf_counter_ns()
+                server.poll()
+                ns.append(time.perf_counter_ns() - a)
+                client.recv(65536)
+            client.close()
+        finally:
+            server.close()
+    return {"idle": idle, "idle_client": connected, "status_request": _percentiles(ns)}
+
+
+def format_table(result: dict) -> str:
+    lines = [f"{'ControlServer.poll() µs':<34}{'p50':>8}{'p99':>8}{'max':>9}"]
+    for key, label in (("idle", "idle, no connection"), ("idle_client", "one idle client connected"),
+                       ("status_request", "answering one status request")):
+        p = result[key]
+        lines.append(f"{label:<34}{p['p50_us']:>8.2f}{p['p99_us']:>8.2f}{p['max_us']:>9.1f}")
+    return "\n".join(lines)
