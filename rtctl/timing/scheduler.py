@@ -186,8 +186,11 @@ class Ticker:
 
     def summary(self) -> dict:
         """JSON-able statistics of the run so far (see :meth:`LoopStats.summary`)."""
+        end = self._end_ns
+        if self._paced and self.tick >= 0:  # a run lasts until its last period is over
+            end = max(end, self.deadline_ns(self.tick + 1))
         return self.stats.summary(
-            wall_time_s=(self._end_ns - self._start_ns) / 1e9,
+            wall_time_s=(end - self._start_ns) / 1e9,
             period_s=self.period_ns / 1e9,
             realtime_factor=self.realtime_factor,
         ) | {"safe_stop_requested": self.stop_requested}

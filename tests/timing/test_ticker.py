@@ -40,6 +40,7 @@ def test_deadlines_lie_exactly_on_the_grid():
     assert clock.sleeps == [5_000 + k * P for k in range(50)]
     s = ticker.summary()
     assert (s["overruns"], s["skipped_periods"], s["ticks"]) == (0, 0, 50)
+    assert s["achieved_rate_hz"] == s["target_rate_hz"] == 1000.0 and s["wall_time_s"] == 0.05
 
 
 @pytest.mark.parametrize("factor", [2.0, 0.5, 3.0, 1 / 3, 0.7])
@@ -66,6 +67,7 @@ def test_a_long_tick_skips_the_missed_periods_instead_of_catching_up():
     assert wakes == [(6, 6 * P), (7, 7 * P), (8, 8 * P)]
     s = ticker.summary()
     assert (s["overruns"], s["skipped_periods"], s["ticks"]) == (1, 3, 6)
+    assert s["achieved_rate_hz"] == pytest.approx(6 / 9e-3)  # 6 ticks in 9 periods
 
 
 def test_ending_exactly_on_the_next_deadline_is_not_an_overrun():
