@@ -80,7 +80,9 @@ class Ticker:
         self.phases = tuple(phases)
         self.stats = LoopStats(self.phases)
         # tick k is due at start + k·period·den // num: exact integers, no drift
-        f = Fraction(self.realtime_factor).limit_denominator(1_000_000)
+        f = Fraction(self.realtime_factor).limit_denominator(10**9)
+        if f == 0 < self.realtime_factor:
+            raise ValueError(f"realtime_factor {realtime_factor} is too small (0 means lock-step)")
         self._paced = f > 0
         self._grid_num, self._grid_den = f.numerator, self.period_ns * f.denominator
         self.phase_ns = [0] * len(self.phases)  # this tick's phase times, overwritten in place
