@@ -85,9 +85,12 @@ class Recorder:
         except OSError as exc:
             raise TelemetryError(f"cannot create telemetry file {self.path}: {exc.strerror}") from exc
         try:
-            os.write(file_fd, header_bytes)
+            if os.write(file_fd, header_bytes) != len(header_bytes):
+                raise OSError("short write")
             self._ring = Ring.create(dtype, block_rows, n_blocks)
             self._proc, self._pipe_fd = self._start_writer(file_fd)
+        except OSError as exc:
+            raise TelemetryError(f"cannot write telemetry file {self.path}: {exc}") from exc
         finally:
             os.close(file_fd)  # the writer owns the file from here on
         self._ctl = self._ring.ctl

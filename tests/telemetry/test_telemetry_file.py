@@ -209,3 +209,25 @@ def test_bad_schema_is_refused(tmp_path, schema, message):
 def test_unwritable_path_is_a_clear_error(tmp_path):
     with pytest.raises(TelemetryError, match="cannot create telemetry file"):
         Recorder(tmp_path / "no" / "such" / "dir.rtt", {"k": ((), "i8")})
+
+
+@pytest.mark.parametrize("wait_when_full", [False, True])
+def test_a_dead_writer_never_blocks_the_loop_and_close_reports_it(tmp_path, wait_when_full):
+    rec = Recorder(tmp_path / "run.rtt", {"k": ((), "i8")}, block_rows=5, n_blocks=2, wait_when_full=wait_when_full)
+    rec._proc.kill()
+    rec._proc.wait()
+    results = []
+    for k in range(30):
+        rec.row["k"][()] = k
+        results.append(rec.commit())
+    assert results == [True] * 10 + [False] * 20 and rec.dropped_rows == 20 and not rec.writer_alive
+    with pytest.raises(TelemetryError, match="writer .* failed \\(exit status -9\\); rows stored: 10"):
+        rec.close()
+    rec.close()  # the second close is a no-op
+
+
+def test_full_disk_at_start_is_a_clear_error(tmp_path):
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full on this system")
+    with pytest.raises(TelemetryError, match="cannot write telemetry file /dev/full"):
+        Recorder("/dev/full", {"k": ((), "i8")})
