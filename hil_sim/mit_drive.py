@@ -92,13 +92,16 @@ class MitDrive:
         """Handle one frame addressed to this drive; the reply payload, or None (no answer)."""
         if self.faults.silent:
             return None
-        kind = mit.special_kind(data)
-        if kind is not None:
-            self.counters.specials += 1
-            self._special(kind, now)
-        elif len(data) != mit.COMMAND_LENGTH or mit.is_special_prefix(data):
+        if len(data) != mit.COMMAND_LENGTH:
             self.counters.malformed += 1
             return None
+        if data[0] == 0xFF and data[:7] == mit.SPECIAL_PREFIX:
+            kind = mit.special_kind(data)
+            if kind is None:
+                self.counters.malformed += 1
+                return None
+            self.counters.specials += 1
+            self._special(kind, now)
         else:
             self.counters.commands += 1
             self.last_command_time = now
@@ -143,9 +146,6 @@ class MitDrive:
         self.torque = tau
         self.port.set_torque(tau)
         return tau
-
-    def watchdog_deadline(self) -> float | None:
-        return self.last_command_time + self.timeout_s if self.enabled else None
 
     def _answer(self) -> bytes | None:
         f = self.faults
@@ -228,14 +228,15 @@ class MitDriveBus:
             out.append((arbitration_id, payload))
 
     def next_deadline(self) -> float | None:
-        """When :meth:`service` must run next at the latest (a delayed reply, a watchdog)."""
-        times = [d.watchdog_deadline() for d in self.drives.values()]
-        times = [t for t in times if t is not None]
-        if self._delayed:
-            times.append(self._delayed[0][0])
+        """When :meth:`service` must run next at the latest (a delayed reply, a watchdog, an
+        incomplete cycle)."""
+        first = self._delayed[0][0] if self._delayed else math.inf
         if self.unserviced:
-            times.append(self._first_unserviced + self.max_staleness)
-        return min(times) if times else None
+            first = min(first, self._first_unserviced + self.max_staleness)
+        for d in self.drives.values():
+            if d.enabled and d.last_command_time + d.timeout_s < first:
+                first = d.last_command_time + d.timeout_s
+        return None if first == math.inf else first
 
     def wants_service(self, now: float) -> bool:
         if self.unserviced >= len(self.drives):

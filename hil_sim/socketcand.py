@@ -117,14 +117,13 @@ class SocketcandServer:
     def _send(self, client: _Client, data: bytes) -> None:
         try:
             client.sock.sendall(data)
-            client.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_QUICKACK, 1)
         except OSError:
             self._drop(client)
 
     def _read(self, client: _Client, now: float) -> None:
         try:
             data = client.sock.recv(65536)
-            client.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_QUICKACK, 1)
+            client.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_QUICKACK, 1)  # as socketcand: ack now
         except OSError:
             data = b""
         if not data:
@@ -176,7 +175,7 @@ class SocketcandServer:
             if not 0 <= dlc <= 8 or len(words) != 3 + dlc:
                 raise ValueError
             arbitration_id = int(words[1], 16)
-            data = bytes(int(b, 16) for b in words[3:])
+            data = bytes([int(b, 16) for b in words[3:]])
         except (ValueError, IndexError):
             self.counters["syntax_errors"] += 1  # socketcand logs and drops a bad send
             return
@@ -187,17 +186,15 @@ class SocketcandServer:
 
     def _broadcast(self, bus: MitDriveBus, frames: list, sender: _Client | None) -> None:
         """Send frames on ``bus`` to every raw-mode client on it except ``sender``; clears ``frames``."""
-        if not frames:
-            return
-        t = time.time()
-        stamp = f"{int(t)}.{int((t % 1) * 1e6):06d}"
-        text = "".join(
-            f"< frame {f[0]:08X} {stamp} {f[1].hex().upper()} >" if len(f) > 2 and f[2]
-            else f"< frame {f[0]:03X} {stamp} {f[1].hex().upper()} >"
-            for f in frames
-        ).encode("ascii")
-        for c in list(self._clients.values()):
-            if c.bus is bus and c.state == "raw" and c is not sender:
+        to = [c for c in self._clients.values() if c.bus is bus and c.state == "raw" and c is not sender]
+        if frames and to:
+            stamp = f"{time.time():.6f}"
+            text = "".join(
+                f"< frame {f[0]:08X} {stamp} {f[1].hex().upper()} >" if len(f) > 2 and f[2]
+                else f"< frame {f[0]:03X} {stamp} {f[1].hex().upper()} >"
+                for f in frames
+            ).encode("ascii")
+            for c in to:
                 self._send(c, text)
                 self.counters["frames_out"] += len(frames)
         frames.clear()
