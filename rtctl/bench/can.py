@@ -17,8 +17,10 @@ imports them (DESIGN §1); this benchmark needs both ends of the wire.
 """
 from __future__ import annotations
 
+import ctypes
 import json
 import select
+import signal
 import subprocess
 import sys
 import time
@@ -136,9 +138,18 @@ def bench_virtual(joints: int = 6, cycles: int = 3000) -> dict:
     return _stats("virtual (lock-step, in-process)", joints, times, misses, None, lost)
 
 
+def _die_with_parent() -> None:
+    """In the child: SIGTERM when the benchmark dies, so no server outlives it (Linux prctl)."""
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
 def _start_server(module: str, ids, extra=()) -> tuple[subprocess.Popen, dict]:
     proc = subprocess.Popen(
-        [sys.executable, "-m", module, "--ids", *map(str, ids), *extra], stdout=subprocess.PIPE, text=True
+        [sys.executable, "-m", module, "--ids", *map(str, ids), *extra], stdout=subprocess.PIPE, text=True,
+        preexec_fn=_die_with_parent,
     )
     ready, _, _ = select.select([proc.stdout], [], [], 20.0)
     if not ready:
