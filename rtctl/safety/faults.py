@@ -1,0 +1,68 @@
+"""What the safety stage decides and records: verdicts, fault kinds, latched fault records,
+and the protocol of the interference guard's run-time hook."""
+from __future__ import annotations
+
+import enum
+from dataclasses import asdict, dataclass
+from typing import Protocol
+
+from rtctl.hal.joints import JointCommand, JointState
+from rtctl.safety import kernels as k
+
+
+class Verdict(enum.IntEnum):
+    """What the loop does with this tick's command (returned by ``SafetyStage.check``)."""
+
+    OK = 0  # controllers in charge; the command (possibly clamped) goes out
+    FALLBACK = 1  # a fault is latched: the stage wrote the fallback command; drives stay enabled,
+    #               controllers are not in charge (their output is overwritten every tick)
+    DEACTIVATE = 2  # stop complete (or category 0): command is zero, deactivate every device now;
+    #                 repeated every tick until a successful reset()
+
+
+class FaultKind(enum.IntFlag):
+    POSITION = k.POSITION  # past a hard joint limit
+    VELOCITY = k.VELOCITY  # |q̇| over the limit
+    NONFINITE_STATE = k.NONFINITE_STATE  # the device reported NaN/inf
+    STALE = k.STALE  # no fresh data for stale_ticks consecutive ticks
+    DEVICE_ERROR = k.DEVICE_ERROR  # a device's read/write returned ERROR
+    DEVICE_DEACTIVATE = k.DEVICE_DEACTIVATE  # a device asked to be deactivated (its own stop)
+    NONFINITE_COMMAND = k.NONFINITE_COMMAND  # a controller wrote NaN/inf
+    CONTROLLER = k.CONTROLLER  # a controller raised
+    GUARD = k.GUARD  # the guard hook refused the command
+    ESTOP = k.ESTOP  # e-stop (operator, control socket, overrun policy)
+
+
+#: faults that stop like an e-stop (category 1: damping, then drives off) rather than hold
+STOPPING = FaultKind.ESTOP | FaultKind.DEVICE_DEACTIVATE
+
+
+@dataclass(frozen=True)
+class Fault:
+    kind: FaultKind
+    joint: int  # -1 when the fault is not a joint's
+    tick: int
+    t: float
+    value: float  # the offending value (position, velocity, stale ticks, status code…); NaN if none
+    reason: str
+
+    def as_dict(self) -> dict:
+        d = asdict(self)
+        d["kind"] = self.kind.name.lower()
+        return d
+
+
+class GuardVerdict(enum.IntEnum):
+    PASS = 0  # command untouched
+    MODIFIED = 1  # the guard changed the command in place (the stage bounds it again)
+    STOP = 2  # violation: the stage latches a GUARD fault (reason from ``guard.reason``)
+
+
+class Guard(Protocol):
+    """Run-time hook of the interference guard (spec/interference_guard.md §2): called every
+    tick the controllers are in charge, after the command is bounded, before it is written."""
+
+    reason: str
+
+    def check(self, t: float, state: JointState, command: JointCommand) -> int:
+        """Return a :class:`GuardVerdict`; may modify ``command`` in place; must not allocate."""

@@ -1,0 +1,92 @@
+"""Non-finite output or a raising controller → the fallback command in the same tick."""
+import math
+
+import numpy as np
+import pytest
+
+from safety_rig import TAU_MAX, Rig
+from rtctl.hal.joints import CommandMode
+from rtctl.safety import FaultKind, Verdict
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_nonfinite_torque_engages_hold_in_the_same_tick(rig, bad):
+    rig.state.position[:] = [0.1, 0.2, 0.3]
+    assert rig.step() == Verdict.OK
+    rig.state.position[:] = [0.12, 0.2, 0.3]
+    rig.state.velocity[:] = [1.0, 0.0, -0.5]
+    rig.command.tau_ff[:] = [1.0, bad, 1.0]
+    assert rig.step() == Verdict.FALLBACK
+    (f,) = rig.stage.faults
+    assert f.kind == FaultKind.NONFINITE_COMMAND and f.joint == 1 and f.tick == 1
+    # held where it was at the fault (this tick's measurement), with damping
+    np.testing.assert_allclose(rig.command.tau_ff, [-4.0, 0.0, 2.0])
+    assert np.all(np.isfinite(rig.command.tau_ff))
+
+
+def test_controller_exception_engages_fallback_with_reason(rig):
+    rig.command.tau_ff[:] = 3.0  # whatever the controller left half-written
+    assert rig.step(controller_ok=False, error="ct: ZeroDivisionError: boom") == Verdict.FALLBACK
+    (f,) = rig.stage.faults
+    assert f.kind == FaultKind.CONTROLLER and f.joint == -1 and "boom" in f.reason
+    np.testing.assert_allclose(rig.command.tau_ff, 0.0)  # at rest at the held position
+    assert rig.step() == Verdict.FALLBACK  # latched though the controller recovered
+
+
+def test_damp_fallback_is_pure_damping():
+    r = Rig(fallback="damp", damping=3.0)
+    r.state.velocity[:] = [1.0, -2.0, 0.5]
+    r.state.position[:] = [0.5, 0.5, 0.5]
+    r.command.tau_ff[0] = math.nan
+    assert r.step() == Verdict.FALLBACK
+    np.testing.assert_allclose(r.command.tau_ff, [-3.0, 6.0, -1.5])
+
+
+def test_hold_adds_gravity_at_the_held_position():
+    calls = []
+
+    def gravity(q):
+        calls.append(q.copy())
+        return np.array([1.0, -2.0, 0.5]) + q
+
+    r = Rig(gravity=gravity, hold_stiffness=10.0, damping=1.0)
+    r.state.position[:] = [0.1, 0.2, 0.3]
+    r.step(controller_ok=False)
+    for _ in range(5):
+        r.state.position[:] += 0.01
+        assert r.step() == Verdict.FALLBACK
+    assert len(calls) == 1  # once, at the fault
+    g = np.array([1.1, -1.8, 0.8])
+    np.testing.assert_allclose(r.command.tau_ff, 10.0 * (-0.05) + g)
+
+
+def test_fallback_torque_is_clamped_and_survives_a_nonfinite_state():
+    r = Rig(hold_stiffness=1000.0, damping=1.0)
+    r.state.position[:] = [0.0, 0.0, 0.0]
+    r.step(controller_ok=False)
+    r.state.position[:] = [0.5, math.nan, 0.0]
+    r.state.velocity[:] = [0.0, 2.0, math.nan]
+    assert r.step() == Verdict.FALLBACK
+    # joint 0 saturates, joint 1 (no position) is damped, joint 2 (no velocity) gets nothing
+    np.testing.assert_allclose(r.command.tau_ff, [-TAU_MAX[0], -2.0, 0.0])
+    assert any(f.kind == FaultKind.NONFINITE_STATE for f in r.stage.faults)
+
+
+def test_impedance_fallback_is_closed_by_the_drive():
+    r = Rig(hold_stiffness=30.0, damping=2.0)
+    c = r.command
+    c.mode = CommandMode.IMPEDANCE
+    r.state.position[:] = [0.1, 0.2, 0.3]
+    c.kp[:] = 50.0
+    c.kp[2] = math.nan
+    assert r.step() == Verdict.FALLBACK
+    np.testing.assert_allclose(c.q_des, [0.1, 0.2, 0.3])
+    np.testing.assert_array_equal(c.qd_des, 0.0)
+    np.testing.assert_array_equal(c.kp, 30.0)
+    np.testing.assert_array_equal(c.kd, 2.0)
+    np.testing.assert_array_equal(c.tau_ff, 0.0)
+    r.stage.estop()  # category 1: damping only
+    r.state.velocity[:] = 1.0
+    assert r.step() == Verdict.FALLBACK
+    np.testing.assert_array_equal(c.kp, 0.0)
+    np.testing.assert_array_equal(c.kd, 2.0)

@@ -1,0 +1,92 @@
+"""Position, velocity and torque limits, in torque and impedance mode."""
+import numpy as np
+import pytest
+
+from safety_rig import Q_MAX, Q_MIN, TAU_MAX, V_MAX, Rig
+from rtctl.hal.joints import CommandMode
+from rtctl.safety import FaultKind, Verdict
+from rtctl.safety.limits import limits_table
+
+
+def test_torque_is_clamped_and_counted(rig):
+    rig.command.tau_ff[:] = [15.0, -25.0, 1.0]
+    assert rig.step() == Verdict.OK
+    np.testing.assert_array_equal(rig.command.tau_ff, [10.0, -20.0, 1.0])
+    assert rig.stage.summary()["clamps"]["torque"] == [1, 1, 0]
+    assert not rig.stage.faults
+
+
+def test_soft_limit_zeroes_only_outward_torque(rig):
+    rig.state.position[:] = [0.95, -1.95, 2.85]  # inside the 0.1 margin of the upper, lower, upper limit
+    rig.command.tau_ff[:] = [3.0, -3.0, -2.0]  # out, out, back in
+    assert rig.step() == Verdict.OK
+    np.testing.assert_array_equal(rig.command.tau_ff, [0.0, 0.0, -2.0])
+    assert rig.stage.summary()["clamps"]["position"] == [1, 1, 0]
+    rig.state.position[:] = 0.85  # outside the margin: untouched
+    rig.command.tau_ff[:] = [3.0, -3.0, -2.0]
+    assert rig.step() == Verdict.OK
+    np.testing.assert_array_equal(rig.command.tau_ff, [3.0, -3.0, -2.0])
+
+
+def test_past_hard_limit_faults_and_holds_there(rig):
+    rig.state.position[:] = [0.0, 2.05, 0.0]
+    rig.command.tau_ff[:] = 1.0
+    assert rig.step() == Verdict.FALLBACK
+    (f,) = rig.stage.faults
+    assert (f.kind, f.joint, f.value, f.tick) == (FaultKind.POSITION, 1, 2.05, 0)
+    # hold: τ = K (q_hold − q) − D q̇ with the gains of the rig
+    rig.state.position[:] = [0.01, 2.0, -0.02]
+    rig.state.velocity[:] = [0.5, -0.1, 0.0]
+    assert rig.step() == Verdict.FALLBACK
+    expected = 100.0 * (np.array([0.0, 2.05, 0.0]) - rig.state.position) - 4.0 * rig.state.velocity
+    np.testing.assert_allclose(rig.command.tau_ff, np.clip(expected, -TAU_MAX, TAU_MAX))
+
+
+@pytest.mark.parametrize("v, verdict", [(2.0, Verdict.OK), (-2.0001, Verdict.FALLBACK)])
+def test_velocity_over_limit_faults(rig, v, verdict):
+    rig.state.velocity[0] = v
+    assert rig.step() == verdict
+    if verdict == Verdict.FALLBACK:
+        assert rig.stage.faults[0].kind == FaultKind.VELOCITY and rig.stage.faults[0].value == v
+
+
+def test_velocity_factor_scales_the_limit():
+    r = Rig(velocity_factor=1.5)
+    r.state.velocity[0] = 2.9
+    assert r.step() == Verdict.OK
+    r.state.velocity[0] = 3.1
+    assert r.step() == Verdict.FALLBACK
+
+
+def test_impedance_command_is_bounded():
+    r = Rig(position_margin=0.1, kp_max=200.0, kd_max=5.0)
+    c = r.command
+    c.mode = CommandMode.IMPEDANCE
+    r.state.position[:] = [0.5, 0.0, 2.95]
+    r.state.velocity[:] = [0.0, 1.0, 0.0]
+    c.kp[:] = [500.0, -1.0, 10.0]
+    c.kd[:] = [1.0, 9.0, 0.0]
+    c.q_des[:] = [0.95, 0.0, 3.5]
+    c.qd_des[:] = [0.0, 7.0, 0.0]
+    c.tau_ff[:] = [0.0, 0.0, 4.0]
+    assert r.step() == Verdict.OK
+    np.testing.assert_array_equal(c.kp, [200.0, 0.0, 10.0])
+    np.testing.assert_array_equal(c.kd, [1.0, 5.0, 0.0])
+    np.testing.assert_allclose(c.q_des, [0.9, 0.0, 2.9])  # inside the soft limits
+    np.testing.assert_array_equal(c.qd_des, [0.0, 2.0, 0.0])
+    tau = c.kp * (c.q_des - r.state.position) + c.kd * (c.qd_des - r.state.velocity) + c.tau_ff
+    # joint 0: spring 200·0.4 = 80 → cut to 10; joint 1: 5·(2 − 1) = 5 passes;
+    # joint 2 is past its soft limit: the spring pulls in (−0.5) but τ_ff = 4 would push out → τ = 0
+    np.testing.assert_allclose(tau, [10.0, 5.0, 0.0], atol=1e-12)
+    assert r.stage.summary()["clamps"] == {"torque": [1, 0, 0], "position": [0, 0, 1], "impedance": [1, 1, 1]}
+
+
+def test_limits_table_refuses_nonsense():
+    with pytest.raises(ValueError):
+        limits_table(Q_MAX, Q_MIN, V_MAX, TAU_MAX)
+    with pytest.raises(ValueError):
+        limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, position_margin=1.5)
+    with pytest.raises(ValueError):
+        limits_table(Q_MIN, Q_MAX, -V_MAX, TAU_MAX)
+    with pytest.raises(ValueError):
+        limits_table(Q_MIN, Q_MAX[:2], V_MAX, TAU_MAX)

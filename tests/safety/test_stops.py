@@ -1,0 +1,163 @@
+"""E-stop (category 1), fault stop delays, reset semantics, events, and the verdict sequence:
+a fault never leaves a drive enabled without something in charge of it."""
+import math
+
+import numpy as np
+import structlog
+from hypothesis import given, settings, strategies as st
+
+from safety_rig import TAU_MAX, Rig
+from rtctl.safety import FaultKind, Verdict
+
+
+def test_estop_damps_then_deactivates_after_the_delay():
+    r = Rig(estop_off_delay=0.003, damping=2.0)
+    r.state.velocity[:] = [1.0, -1.0, 0.5]
+    assert r.step() == Verdict.OK
+    r.stage.estop("button")
+    verdicts = []
+    for _ in range(6):
+        verdicts.append(r.step())
+        if verdicts[-1] == Verdict.FALLBACK:
+            np.testing.assert_allclose(r.command.tau_ff, -2.0 * r.state.velocity)
+    # latched at t = 0 (the last check's time): ticks at t = 1, 2 ms damp, t = 3 ms switches off
+    assert verdicts == [Verdict.FALLBACK] * 2 + [Verdict.DEACTIVATE] * 4
+    np.testing.assert_array_equal(r.command.tau_ff, 0.0)
+    assert r.stage.faults[0].kind == FaultKind.ESTOP and r.stage.faults[0].reason == "button"
+    assert [e["event"] for e in r.stage.events] == ["fault", "deactivate"]
+
+
+def test_estop_deactivates_as_soon_as_the_robot_is_still():
+    r = Rig(estop_off_delay=10.0, stop_velocity=0.05)
+    r.state.velocity[:] = 0.2
+    r.step()
+    r.stage.estop()
+    assert r.step() == Verdict.FALLBACK
+    r.state.velocity[:] = 0.04
+    assert r.step() == Verdict.DEACTIVATE
+
+
+def test_estop_with_zero_delay_is_category_0():
+    r = Rig(estop_off_delay=0.0)
+    r.state.velocity[:] = 1.0
+    r.stage.estop()
+    assert r.step() == Verdict.DEACTIVATE
+
+
+def test_ordinary_fault_holds_until_fault_off_delay():
+    r = Rig(fault_off_delay=0.002)
+    r.command.tau_ff[0] = math.nan
+    assert [r.step() for _ in range(4)] == [Verdict.FALLBACK] * 2 + [Verdict.DEACTIVATE] * 2
+    r = Rig()  # default: hold with drives on until reset
+    r.command.tau_ff[0] = math.nan
+    assert {r.step() for _ in range(1000)} == {Verdict.FALLBACK}
+
+
+def test_reset_clears_only_faults_whose_cause_is_gone():
+    r = Rig()
+    r.state.position[0] = 1.2  # past q_max = 1
+    r.state.velocity[:] = 0.5  # still moving: the e-stop damps (a still robot would switch off at once)
+    r.stage.estop()
+    assert r.step() == Verdict.FALLBACK
+    assert {f.kind for f in r.stage.faults} == {FaultKind.ESTOP, FaultKind.POSITION}
+    assert not r.stage.reset()  # the e-stop is acknowledged, the joint is still out of range
+    assert [f.kind for f in r.stage.faults] == [FaultKind.POSITION]
+    assert r.step() == Verdict.FALLBACK
+    r.state.position[0] = 0.9
+    r.state.velocity[:] = 0.0
+    assert r.step() == Verdict.FALLBACK  # back in range, but latched
+    assert r.stage.reset()
+    assert not r.stage.faults and not r.stage.faulted
+    r.command.tau_ff[:] = 1.0
+    assert r.step() == Verdict.OK
+    np.testing.assert_array_equal(r.command.tau_ff, 1.0)
+    r.state.position[0] = 1.3  # the same fault again is recorded again
+    assert r.step() == Verdict.FALLBACK and len(r.stage.faults) == 1
+
+
+def test_deactivate_persists_until_a_successful_reset():
+    r = Rig(estop_off_delay=0.0)
+    r.state.fresh[2] = False
+    r.stage.estop()
+    assert [r.step() for _ in range(5)] == [Verdict.DEACTIVATE] * 5
+    assert not r.stage.reset()  # joint 2's data still stale
+    assert r.step() == Verdict.DEACTIVATE
+    r.state.fresh[2] = True
+    r.step()
+    assert r.stage.reset()
+    assert r.step() == Verdict.OK
+
+
+def test_events_are_logged_and_passed_to_the_callback():
+    seen = []
+    r = Rig(on_event=seen.append)
+    r.state.velocity[:] = 1.0
+    with structlog.testing.capture_logs() as logs:
+        r.stage.estop("socket")
+        r.step()
+        r.stage.reset()
+    assert [e["event"] for e in seen] == ["fault", "reset"]
+    assert seen[0]["kind"] == "estop" and seen[0]["reason"] == "socket"
+    assert [e["event"] for e in logs] == ["fault", "reset"]
+    assert r.stage.summary()["events"] == seen
+
+
+# -- the verdict sequence under random events -------------------------------------------
+actions = st.lists(st.sampled_from(["tick", "tick", "tick", "nan", "raise", "fast", "far", "stale",
+                                    "device", "estop", "reset", "recover"]), min_size=1, max_size=60)
+
+
+@settings(max_examples=60, deadline=None)
+@given(actions, st.sampled_from(["hold", "damp"]), st.sampled_from([0.0, 0.004, math.inf]))
+def test_no_drive_is_left_enabled_without_a_controller(seq, fallback, fault_off_delay):
+    r = Rig(n_devices=2, fallback=fallback, fault_off_delay=fault_off_delay, estop_off_delay=0.002,
+            stale_ticks=2, hold_stiffness=50.0, damping=3.0)
+    rng = np.random.default_rng(len(seq))
+    deactivated = False
+    for a in seq:
+        ok = True
+        if a == "nan":
+            r.command.tau_ff[1] = math.nan
+        elif a == "raise":
+            ok = False
+        elif a == "fast":
+            r.state.velocity[2] = 9.0
+        elif a == "far":
+            r.state.position[0] = 1.5
+        elif a == "stale":
+            r.state.fresh[1] = False
+        elif a == "device":
+            r.statuses[1] = 1
+        elif a == "estop":
+            r.stage.estop()
+        elif a == "recover":
+            r.state.position[:] = 0.0
+            r.state.velocity[:] = 0.0
+            r.state.fresh[:] = True
+            r.statuses[:] = 0
+        elif a == "reset":
+            if r.stage.reset():
+                deactivated = False
+            continue
+        if a != "nan":
+            r.command.tau_ff[:] = rng.uniform(-30, 30, 3)  # what a controller would write
+        before = r.command.tau_ff.copy()
+        v = r.step(controller_ok=ok)
+        assert (v == Verdict.OK) == (not r.stage.faults)  # OK only with nothing latched
+        if deactivated:
+            assert v == Verdict.DEACTIVATE  # stays off until a reset succeeds
+        tau = r.command.tau_ff
+        assert np.all(np.isfinite(tau)) and np.all(np.abs(tau) <= TAU_MAX)
+        if v == Verdict.DEACTIVATE:
+            deactivated = True
+            np.testing.assert_array_equal(tau, 0.0)
+        elif v == Verdict.FALLBACK:  # the controller's numbers are gone: the fallback law is in charge
+            q, qd = r.state.position, r.state.velocity
+            stopping = any(f.kind in (FaultKind.ESTOP, FaultKind.DEVICE_DEACTIVATE) for f in r.stage.faults)
+            if fallback == "damp" or stopping:
+                law = -3.0 * qd
+            else:
+                law = 50.0 * (r.stage.fb[3] - q) - 3.0 * qd  # row 3: the held position
+            np.testing.assert_allclose(tau, np.clip(law, -TAU_MAX, TAU_MAX))
+        else:
+            np.testing.assert_allclose(tau, np.clip(before, -TAU_MAX, TAU_MAX))
