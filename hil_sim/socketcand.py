@@ -49,6 +49,7 @@ class SocketcandServer:
         self._wake_r, self._wake_w = os.pipe()
         self._clients: dict[socket.socket, _Client] = {}
         self._stop = False
+        self._drop_all = False
         self.counters = {"connections": 0, "frames_in": 0, "frames_out": 0, "syntax_errors": 0}
 
     @property
@@ -75,7 +76,11 @@ class SocketcandServer:
                         self._accept()
                     elif s is self._wake_r:
                         os.read(self._wake_r, 64)
-                    else:
+                        if self._drop_all:
+                            self._drop_all = False
+                            for c in list(self._clients.values()):
+                                self._drop(c)
+                    elif s in self._clients:  # (a client dropped earlier in this round is gone)
                         self._read(self._clients[s], now)
                 for bus in self.buses.values():  # plant, watchdogs, delayed replies
                     if bus.wants_service(now):
@@ -87,6 +92,12 @@ class SocketcandServer:
     def shutdown(self) -> None:
         """Make :meth:`serve_forever` return (thread- and signal-safe)."""
         self._stop = True
+        os.write(self._wake_w, b"x")
+
+    def drop_connections(self) -> None:
+        """Fault injection: close every client connection (thread-safe); the listener stays,
+        so clients may reconnect."""
+        self._drop_all = True
         os.write(self._wake_w, b"x")
 
     def close(self) -> None:
