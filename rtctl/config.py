@@ -28,16 +28,8 @@ import numpy as np
 
 from rtctl.errors import ConfigError, RtctlError
 from rtctl.model import Model, load_robot
+from rtctl.timing.rt import RtSettings
 from rtctl.tomltable import Table, load_toml
-
-
-@dataclass(frozen=True)
-class RtSettings:
-    priority: int = 0  # SCHED_FIFO priority, 0 = leave the scheduler alone
-    cpus: tuple[int, ...] = ()  # CPU affinity, empty = leave
-    mlockall: bool = False
-    timer_slack_ns: int = 0  # 0 = leave
-    gc_freeze: bool = True
 
 
 @dataclass(frozen=True)
@@ -88,7 +80,7 @@ class SafetyConfig:
     stale_ticks: int = 3
     position_margin: float = 0.0  # rad inside the joint limits
     estop_off_delay: float = 0.2  # s of controlled stop before drives are disabled
-    options: Table | None = None
+    fault_off_delay: float = 1.0  # s the fallback holds after a fault before drives are disabled
 
 
 @dataclass(frozen=True)
@@ -278,6 +270,7 @@ def _safety(t: Table | None) -> SafetyConfig:
         stale_ticks=t.int("stale_ticks", 3, min=1),
         position_margin=t.float("position_margin", 0.0, min=0.0),
         estop_off_delay=t.float("estop_off_delay", 0.2, min=0.0),
+        fault_off_delay=t.float("fault_off_delay", 1.0, min=0.0),
     )
     t.done()
     return cfg

@@ -1,0 +1,107 @@
+"""The short subcommands of ``rtctl`` (the daemon lives in :mod:`rtctl.daemon`)."""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from rtctl.cli import EXIT_OK, print_json
+
+SHIPPED_PUMA = Path(__file__).resolve().parent.parent / "configs" / "robots" / "puma560.toml"
+
+
+def print_model(args) -> int:
+    from rtctl.model import dynamics, kinematics, load_robot
+
+    model = load_robot(args.robot)
+    q = np.zeros(model.nq) if args.q is None else np.array(args.q, dtype=float)
+    if q.shape != (model.nq,):
+        from rtctl.errors import ConfigError
+
+        raise ConfigError("<command line>", "--q", f"{model.nq} joint values, got {q.size}")
+    np.set_printoptions(precision=4, suppress=True, linewidth=120)
+    print(f"robot {model.name}: {model.nq} joints" + (f"  (reconstructed: {model.reconstructed})" if model.reconstructed else ""))
+    for i, name in enumerate(model.joint_names):
+        kind = "revolute" if model.joint_types[i] == 0 else "prismatic"
+        print(f"  {i + 1}. {name:<12} {kind:<9} limits [{model.q_min[i]:+.3f}, {model.q_max[i]:+.3f}]  "
+              f"mass {model.params[i, 0]:.3f} kg")
+    print(f"q = {q}")
+    print("tool pose F = ⁰Tₙ · tool:")
+    print(kinematics.fk(model, q))
+    print("mass matrix H(q):")
+    print(dynamics.mass_matrix(model, q))
+    print(f"gravity G(q) = {dynamics.gravity(model, q)}")
+    timings = {}
+    for name, fn in (("rnea", lambda: dynamics.rnea(model, q, q, q)),
+                     ("mass_matrix", lambda: dynamics.mass_matrix(model, q))):
+        fn()
+        t0 = time.perf_counter()
+        for _ in range(1000):
+            fn()
+        timings[name] = (time.perf_counter() - t0) * 1e3
+    print("timing: " + ", ".join(f"{k} {v:.1f} µs/call" for k, v in timings.items()))
+    return EXIT_OK
+
+
+def check(args) -> int:
+    """Validate everything `run` would, without touching a device; print the bus budget."""
+    from rtctl.config import load_config
+    from rtctl.runtime import build
+
+    cfg = load_config(args.config, sim=args.sim)
+    runtime = build(cfg)  # plug-ins validate their options here; nothing is opened
+    print(f"{cfg.file}: OK — robot {cfg.model.name} ({cfg.model.nq} joints), "
+          f"{cfg.loop.rate_hz:g} Hz, devices: {', '.join(f'{d.name} ({d.driver})' for d in cfg.devices)}, "
+          f"controllers: {', '.join(f'{c.name} ({c.type})' for c in cfg.controllers) or 'none'}")
+    for line in runtime.bus_budget():
+        print(line)
+    return EXIT_OK
+
+
+def control_request(args) -> int:
+    from rtctl.config import default_socket_path
+    from rtctl.control_socket import request
+
+    path = args.socket or default_socket_path()
+    fields = {}
+    if args.command == "move":
+        fields = {"q": list(args.q), "deg": args.deg}
+        if args.duration is not None:
+            fields["duration"] = args.duration
+    reply = request(path, args.command, **fields)
+    print_json(reply)
+    return EXIT_OK if reply.get("ok", False) else 3
+
+
+def bench(args) -> int:
+    robot = args.robot or str(SHIPPED_PUMA)
+    if args.what == "dynamics":
+        from rtctl.bench.dynamics import bench_dynamics as run, format_table
+
+        result = run(robot)
+    elif args.what == "loop":
+        from rtctl.bench.loop import bench_loop as run, format_table
+
+        result = run(robot, rate=args.rate, seconds=args.seconds)
+    elif args.what == "can":
+        from rtctl.bench.can import bench_can as run, format_table
+
+        result = run()
+    else:
+        from rtctl.bench.control import bench_control as run, format_table
+
+        result = run(robot)
+    print(format_table(result))
+    if args.json:
+        Path(args.json).write_text(json.dumps(result, indent=2, default=float))
+        print(f"wrote {args.json}")
+    return EXIT_OK
+
+
+def doctor(args) -> int:
+    from rtctl.timing.doctor import doctor as run_doctor, format_doctor
+
+    print(format_doctor(run_doctor()))
+    return EXIT_OK

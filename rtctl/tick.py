@@ -1,0 +1,102 @@
+"""One tick of the loop (DESIGN §2):
+
+    read() → reference → controllers update() (each at its rate divisor) → safety → write() → record
+
+Each phase is timed by the :class:`~rtctl.timing.Ticker` (``mark``). Nothing here allocates
+on the normal path: devices and controllers write into preallocated arrays, the robot-wide
+state and command are gathered/scattered with ``np.put``/``np.take``; only an exception —
+the fault path, where the fallback takes over — may allocate.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from rtctl.hal import Status
+from rtctl.safety import Verdict
+from rtctl.timing import READ, RECORD, SAFETY, UPDATE, WRITE
+
+
+class Tick:
+    def __init__(self, runtime, ticker, safety, recorder=None):
+        self.rt = runtime
+        self.ticker = ticker
+        self.safety = safety
+        self.recorder = recorder
+        self.trajectory = None  # set by the daemon; replaced by `move`
+        n = runtime.model.nq
+        self.statuses = np.zeros(len(runtime.devices), dtype=np.int64)
+        self.verdict = Verdict.OK
+        self.controller_error: str | None = None
+        self._e = np.zeros(n)
+        self.err_sq = np.zeros(n)  # Σ e² for the RMS in the summary
+        self.err_max = np.zeros(n)
+        self.samples = 0
+        self.phase_row = None  # telemetry view of the phase times, when recording
+
+    def __call__(self, t: float) -> Verdict:
+        rt, ticker = self.rt, self.ticker
+        state, command, ref = rt.state, rt.command, rt.ref
+
+        for i, dev in enumerate(rt.devices):
+            self.statuses[i] = dev.read(t)
+            idx, s = rt.device_joints[i], dev.state
+            np.put(state.position, idx, s.position)
+            np.put(state.velocity, idx, s.velocity)
+            np.put(state.effort, idx, s.effort)
+            np.put(state.fresh, idx, s.fresh)
+        state.stamp = t
+        ticker.mark(READ)
+
+        if self.trajectory is not None:
+            self.trajectory.sample(t, ref.q, ref.qd, ref.qdd)
+        controller_ok = True
+        for c in rt.controllers:
+            if ticker.due(c.divisor):
+                try:
+                    c.update(t, state, ref, command)
+                except Exception as e:  # the safety stage engages the fallback this same tick
+                    controller_ok = False
+                    self.controller_error = f"{c.name}: {type(e).__name__}: {e}"
+        ticker.mark(UPDATE)
+
+        self.verdict = self.safety.check(t, ticker.tick, state, self.statuses, command, controller_ok,
+                                         self.controller_error)
+        ticker.mark(SAFETY)
+
+        for i, dev in enumerate(rt.devices):
+            idx, c = rt.device_joints[i], dev.command
+            c.mode = command.mode
+            np.take(command.tau_ff, idx, out=c.tau_ff)
+            np.take(command.q_des, idx, out=c.q_des)
+            np.take(command.qd_des, idx, out=c.qd_des)
+            np.take(command.kp, idx, out=c.kp)
+            np.take(command.kd, idx, out=c.kd)
+            if dev.write(t) != Status.OK:
+                self.statuses[i] = Status.ERROR  # seen by the safety stage next tick
+        ticker.mark(WRITE)
+
+        if self.verdict == Verdict.OK:  # tracking is the controllers' while they are in charge
+            self._track()
+        if self.recorder is not None:
+            self.recorder.row["t"][()] = t
+            self.phase_row[:] = ticker.phase_ns  # the previous tick's phases (this one is still running)
+            self.recorder.record()
+        ticker.mark(RECORD)
+        return self.verdict
+
+    def _track(self) -> None:
+        e, state, ref = self._e, self.rt.state, self.rt.ref
+        np.subtract(state.position, ref.q, out=e)
+        np.abs(e, out=e)
+        np.maximum(self.err_max, e, out=self.err_max)
+        np.multiply(e, e, out=e)
+        self.err_sq += e
+        self.samples += 1
+
+    def tracking_summary(self) -> dict:
+        names = self.rt.model.joint_names
+        m = max(self.samples, 1)
+        rms = np.sqrt(self.err_sq / m)
+        return {"rms": dict(zip(names, rms.tolist())), "max": dict(zip(names, self.err_max.tolist())),
+                "rms_all": float(np.sqrt(self.err_sq.sum() / m / len(names))),
+                "max_all": float(self.err_max.max(initial=0.0))}
