@@ -245,6 +245,25 @@ class MitDriveBus:
         return deadline is not None and deadline <= now
 
 
+class ArrayJointPort:
+    """Joint ``index`` of a multi-joint plant that keeps its state and torque input in arrays
+    (e.g. ``ArrayJointPort(plant.q, plant.qd, plant.tau_cmd, i)``)."""
+
+    __slots__ = ("q", "qd", "tau", "index")
+
+    def __init__(self, q, qd, tau, index: int):
+        self.q, self.qd, self.tau, self.index = q, qd, tau, index
+
+    def get_position(self) -> float:
+        return float(self.q[self.index])
+
+    def get_velocity(self) -> float:
+        return float(self.qd[self.index])
+
+    def set_torque(self, tau: float) -> None:
+        self.tau[self.index] = tau
+
+
 # -- stand-in plant -------------------------------------------------------------------------
 class InertiaJoint:
     """1-DoF J q̈ = τ − b q̇, integrated exactly for a torque held over each step (zero-order
