@@ -90,6 +90,10 @@ class SimJointGroup(JointGroup):
         names = [context.model.joint_names[j] for j in device.joints]
         return cls(device.name, names, device.joints, hub)
 
+    def warm_up(self) -> None:
+        """Load the compiled plant step (a zero-length step changes nothing)."""
+        self.hub.plant.step(0.0)
+
     def _on_deactivate(self) -> None:
         np.put(self.hub.plant.tau_cmd, self.idx, 0.0)  # motors off
 

@@ -29,7 +29,7 @@ from rtctl import logs
 from rtctl.config import load_config
 from rtctl.control_socket import ControlServer
 from rtctl.errors import HardwareError, RtctlError
-from rtctl.hal import Status
+from rtctl.hal import JointCommand, Status
 from rtctl.model.dynamics import gravity as gravity_of
 from rtctl.runtime import build
 from rtctl.safety import SafetyStage, Verdict
@@ -119,6 +119,7 @@ class Daemon:
             np.put(state.velocity, idx, dev.state.velocity)
         self.tick.trajectory = self._initial_trajectory(state.position.copy())
         self.tick.trajectory.sample(0.0, self.rt.ref.q, self.rt.ref.qd, self.rt.ref.qdd)
+        self._warm_up()
         for c in self.rt.controllers:
             c.reset(state)
         for dev in self.rt.devices:
@@ -129,6 +130,20 @@ class Daemon:
         log.info("started", config=str(self.cfg.file), robot=self.model.name, rate_hz=self.cfg.loop.rate_hz,
                  realtime_factor=self.cfg.loop.realtime_factor, devices=[d.name for d in self.rt.devices],
                  controllers=[c.name for c in self.rt.controllers])
+
+    def _warm_up(self) -> None:
+        """Run every compiled path once on throwaway outputs, so that no tick pays for
+        loading (or compiling) a numba kernel."""
+        n = self.model.nq
+        scratch = JointCommand(n)
+        for c in self.rt.controllers:
+            c.update(0.0, self.rt.state, self.rt.ref, scratch)
+        spare = SafetyStage.from_model(self.model, self.cfg.safety, device_joints=self.rt.device_joints)
+        spare.check(0.0, 0, self.rt.state, np.zeros(len(self.rt.devices), dtype=np.int64), scratch, True)
+        for dev in self.rt.devices:
+            warm_up = getattr(dev, "warm_up", None)
+            if warm_up is not None:
+                warm_up()
 
     def _initial_trajectory(self, q0):
         tcfg = self.cfg.trajectory
