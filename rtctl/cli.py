@@ -65,9 +65,14 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("-o", "--output", required=True, help="PNG to write")
 
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
-    bench.add_argument("what", choices=("dynamics", "loop", "can", "control"))
+    bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
+                                        "control-socket"),
+                       help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
+                            "PUMA 560; loop-timing: an empty loop (like cyclictest); can: codec and transports; "
+                            "control: the Slotine–Li laws; telemetry, control-socket: their per-tick costs")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
+    bench.add_argument("--config", default=None, help="run configuration for `bench loop` (default: the shipped one)")
     bench.add_argument("--rate", type=float, default=1000.0, help="loop rate for `bench loop` (Hz)")
     bench.add_argument("--seconds", type=float, default=10.0, help="duration for `bench loop` (s)")
 

@@ -84,7 +84,19 @@ def bench(args) -> int:
     elif args.what == "loop":
         from rtctl.bench.loop import bench_loop as run, format_table
 
-        result = run(robot, rate=args.rate, seconds=args.seconds)
+        result = run(args.config, rate=args.rate, seconds=args.seconds)
+    elif args.what == "telemetry":
+        from rtctl.bench.telemetry import bench_telemetry as run, format_table
+
+        result = run(rate=args.rate)
+    elif args.what == "control-socket":
+        from rtctl.bench.control_socket import bench_control_socket as run, format_table
+
+        result = run()
+    elif args.what == "loop-timing":
+        from rtctl.bench.loop_timing import bench_loop_timing as run, format_table
+
+        result = run(args.rate, args.seconds)
     elif args.what == "can":
         from rtctl.bench.can import bench_can as run, format_table
 
