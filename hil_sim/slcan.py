@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import os
 import select
+import socket
 import time
 import tty
 
@@ -43,7 +44,7 @@ class SlcanAdapter:
         tty.setraw(self._slave)  # no echo, no CR→NL: the bytes go through untouched
         os.set_blocking(self._master, False)
         self.path = os.ttyname(self._slave)  # we keep the slave open so the master never sees EIO
-        self._wake_r, self._wake_w = os.pipe()
+        self._wake_r, self._wake_w = socket.socketpair()  # a closed socket object never writes to a reused fd
         self._stop = False
         self._line = bytearray()
         self._out = bytearray()
@@ -64,7 +65,7 @@ class SlcanAdapter:
                 readable, _, _ = select.select([self._master, self._wake_r], pending, [], timeout)
                 now = self.clock()
                 if self._wake_r in readable:
-                    os.read(self._wake_r, 64)
+                    self._wake_r.recv(64)
                 if self._master in readable:
                     try:
                         data = os.read(self._master, 4096)
@@ -78,16 +79,25 @@ class SlcanAdapter:
         finally:
             self.close()
 
+    def _wake(self) -> None:
+        try:
+            self._wake_w.send(b"x")
+        except OSError:  # already closed: the loop has ended
+            pass
+
     def shutdown(self) -> None:
         self._stop = True
-        os.write(self._wake_w, b"x")
+        self._wake()
 
     def close(self) -> None:
-        for fd in (self._master, self._slave, self._wake_r, self._wake_w):
+        for fd in (self._master, self._slave):
             try:
                 os.close(fd)
             except OSError:
                 pass
+        self._master = self._slave = -1
+        self._wake_r.close()
+        self._wake_w.close()
 
     # -- host → adapter -------------------------------------------------------------------
     def _feed(self, data: bytes, now: float, out: list) -> None:

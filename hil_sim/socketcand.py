@@ -18,7 +18,6 @@ SIGTERM/SIGINT.
 from __future__ import annotations
 
 import argparse
-import os
 import select
 import socket
 import time
@@ -46,7 +45,7 @@ class SocketcandServer:
         self.clock = clock
         self._listen = socket.create_server((host, port))
         self._listen.setblocking(False)
-        self._wake_r, self._wake_w = os.pipe()
+        self._wake_r, self._wake_w = socket.socketpair()  # a closed socket object never writes to a reused fd
         self._clients: dict[socket.socket, _Client] = {}
         self._stop = False
         self._drop_all = False
@@ -75,7 +74,7 @@ class SocketcandServer:
                     if s is self._listen:
                         self._accept()
                     elif s is self._wake_r:
-                        os.read(self._wake_r, 64)
+                        self._wake_r.recv(64)
                         if self._drop_all:
                             self._drop_all = False
                             for c in list(self._clients.values()):
@@ -89,26 +88,29 @@ class SocketcandServer:
         finally:
             self.close()
 
+    def _wake(self) -> None:
+        try:
+            self._wake_w.send(b"x")
+        except OSError:  # already closed: the loop has ended
+            pass
+
     def shutdown(self) -> None:
         """Make :meth:`serve_forever` return (thread- and signal-safe)."""
         self._stop = True
-        os.write(self._wake_w, b"x")
+        self._wake()
 
     def drop_connections(self) -> None:
         """Fault injection: close every client connection (thread-safe); the listener stays,
         so clients may reconnect."""
         self._drop_all = True
-        os.write(self._wake_w, b"x")
+        self._wake()
 
     def close(self) -> None:
         for c in list(self._clients.values()):
             self._drop(c)
         self._listen.close()
-        for fd in (self._wake_r, self._wake_w):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
+        self._wake_r.close()
+        self._wake_w.close()
 
     # -- connections ----------------------------------------------------------------------
     def _accept(self) -> None:
