@@ -22,7 +22,7 @@ from __future__ import annotations
 from numba import njit
 
 from rtctl.model.data import ACC, FRC, SUB, TMP, VEL, update_joints, update_velocities
-from rtctl.model.spatial_kernels import crm_mul_add, dot6, inertia_mul, xforce_T
+from rtctl.model.spatial_kernels import crm_mul_add, dot6, inertia_mul, xforce_T, zero_matrix, zero_vector
 
 CHRISTOFFEL, CSTAR, INERTIA_RATE = 0, 1, 2  # which body term B_k the composites carry
 
@@ -30,7 +30,7 @@ CHRISTOFFEL, CSTAR, INERTIA_RATE = 0, 1, 2  # which body term B_k the composites
 @njit(cache=True)
 def inertia6(p, out):
     """The 6×6 spatial inertia I(p) (spec §2)."""
-    out[:, :] = 0.0
+    zero_matrix(out)
     out[0, 0], out[0, 1], out[1, 1], out[0, 2], out[1, 2], out[2, 2] = p[4], p[5], p[6], p[7], p[8], p[9]
     out[1, 0], out[2, 0], out[2, 1] = p[5], p[7], p[8]
     h0, h1, h2 = p[1], p[2], p[3]
@@ -55,7 +55,7 @@ def _skew_into(x, out, r0, c0, scale):
 def body_term(p, v, kind, I, B, W, f):
     """I = I(p) and B = the body term of ``kind``; W (2, 6, 6) and f (6,) are scratch."""
     inertia6(p, I)
-    W[0, :, :] = 0.0  # crm(v)
+    zero_matrix(W[0])  # crm(v)
     _skew_into(v[:3], W[0], 0, 0, 1.0)
     _skew_into(v[3:], W[0], 3, 0, 1.0)
     _skew_into(v[:3], W[0], 3, 3, 1.0)
@@ -71,7 +71,7 @@ def body_term(p, v, kind, I, B, W, f):
             B[a, b] = half * s
     if kind == CHRISTOFFEL:  # + ½ icrf(I v)
         inertia_mul(p, v, f)
-        W[1, :, :] = 0.0
+        zero_matrix(W[1])
         _skew_into(f[:3], W[1], 0, 0, -0.5)
         _skew_into(f[3:], W[1], 0, 3, -0.5)
         _skew_into(f[3:], W[1], 3, 0, -0.5)
@@ -85,7 +85,7 @@ def congruence_add(Xi, M, W, out):
     """out += Xᵀ M X for X = (E, r) stored as one (4, 3) row of Data.X; W (2, 6, 6) scratch."""
     E, r = Xi[:3], Xi[3]
     X = W[0]
-    X[:, :] = 0.0
+    zero_matrix(X)
     for a in range(3):
         for b in range(3):
             X[a, b] = E[a, b]
@@ -114,7 +114,7 @@ def composites(joint, geom, params, X, body, I6, B6, W, q, qd, kind):
     update_joints(joint, geom, q, X, body)
     update_velocities(joint, X, body, qd)
     for k in range(n):
-        body[k, ACC, :] = 0.0
+        zero_vector(body[k, ACC])
         crm_mul_add(body[k, VEL], body[k, SUB], 1.0, body[k, ACC])
         body_term(params[k], body[k, VEL], kind, I6[k], B6[k], W, body[k, TMP])
     for i in range(n - 1, -1, -1):
@@ -138,7 +138,7 @@ def coriolis_kernel(joint, geom, params, X, body, I6, B6, W, q, qd, kind, C):
     """C(q, q̇) of ``kind`` (CHRISTOFFEL or CSTAR) into ``C``; the rest is Data scratch."""
     n = joint.shape[0]
     composites(joint, geom, params, X, body, I6, B6, W, q, qd, kind)
-    C[:, :] = 0.0
+    zero_matrix(C)
     for j in range(n):  # rows i ⪯ j: S_iᵀ (Î_j Ṡ_j + B̂_j S_j)
         F, G = body[j, FRC], body[j, TMP]
         _mat_vec(I6[j], body[j, ACC], F, False)
@@ -168,7 +168,7 @@ def mass_matrix_dot_kernel(joint, geom, params, X, body, I6, B6, W, q, qd, Hd):
     """Ḣ(q, q̇) into ``Hd``: ḣ_ij = Ṡ_iᵀ Î_j S_j + S_iᵀ (D̂_j S_j + Î_j Ṡ_j), i ⪯ j."""
     n = joint.shape[0]
     composites(joint, geom, params, X, body, I6, B6, W, q, qd, INERTIA_RATE)
-    Hd[:, :] = 0.0
+    zero_matrix(Hd)
     for j in range(n):
         P, Q = body[j, FRC], body[j, TMP]
         _mat_vec(I6[j], body[j, SUB], P, False)

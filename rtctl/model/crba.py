@@ -12,15 +12,17 @@ from __future__ import annotations
 from numba import njit
 
 from rtctl.model.data import SUB, TMP, update_joints
-from rtctl.model.spatial_kernels import dot6, inertia_mul, inertia_to_parent_add, xforce_T
+from rtctl.model.spatial_kernels import dot6, inertia_mul, inertia_to_parent_add, xforce_T, zero_matrix
 
 
 @njit(cache=True)
 def crba_passes(joint, params, X, body, Ic, H):
     """H(q) into ``H`` over transforms already in X; Ic and body[:, TMP] are scratch."""
     n = joint.shape[0]
-    Ic[:, :] = params
-    H[:, :] = 0.0
+    zero_matrix(H)
+    for i in range(n):
+        for k in range(10):
+            Ic[i, k] = params[i, k]
     for i in range(n - 1, -1, -1):
         parent = joint[i, 1]
         if parent >= 0:

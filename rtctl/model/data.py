@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit
 
 from rtctl.model.robot import Model
-from rtctl.model.spatial_kernels import joint_transform, motion_subspace, xmotion
+from rtctl.model.spatial_kernels import joint_transform, motion_subspace, xmotion, zero_vector
 
 SUB, VEL, ACC, FRC, TMP = 0, 1, 2, 3, 4  # slots of Data.body
 
@@ -72,7 +72,7 @@ class Data:
         self.M6 = np.zeros((2, 6, 6))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def update_joints(joint, geom, q, X, body):
     """Joint pass: ⁱX_λ(q_i) into X and S_i into body[:, SUB] (book Table 5.1, jcalc)."""
     for i in range(joint.shape[0]):
@@ -81,14 +81,14 @@ def update_joints(joint, geom, q, X, body):
         motion_subspace(joint[i, 0], g[0], body[i, SUB])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def update_velocities(joint, X, body, qd):
     """v_i = X_i v_λ(i) + S_i q̇_i into body[:, VEL] (book eq. 5.7)."""
     for i in range(joint.shape[0]):
         v = body[i, VEL]
         parent = joint[i, 1]
         if parent < 0:
-            v[:] = 0.0
+            zero_vector(v)
         else:
             xmotion(X[i, :3], X[i, 3], body[parent, VEL], v)
         for k in range(6):

@@ -15,6 +15,7 @@ from numba import njit
 from rtctl.model.crba import crba_passes
 from rtctl.model.data import update_joints
 from rtctl.model.rnea import rnea_passes
+from rtctl.model.spatial_kernels import zero_vector
 
 
 @njit(cache=True)
@@ -47,7 +48,7 @@ def cholesky_solve(H, b):
 def forward_dynamics_kernel(joint, geom, params, gravity, X, body, Ic, H, q, qd, tau, armature, qdd):
     """q̈ into ``qdd``; X, body, Ic and H are Data scratch (H ends up holding the factor)."""
     update_joints(joint, geom, q, X, body)
-    qdd[:] = 0.0
+    zero_vector(qdd)
     rnea_passes(joint, params, gravity, X, body, qd, qdd, qdd)  # reads q̈ = 0, then writes C q̇ + G
     crba_passes(joint, params, X, body, Ic, H)
     for i in range(qdd.shape[0]):

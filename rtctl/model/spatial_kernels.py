@@ -18,10 +18,9 @@ from numba import njit
 
 from rtctl.model.robot import REVOLUTE
 
-_J = ((4, 5, 7), (5, 6, 8), (7, 8, 9))  # index of J[i, j] in the 10 parameters
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def joint_transform(jtype, axis, R_tree, p_tree, q, E, r):
     """ⁱX_λ(q) = X_J(q) X_T as (E, r): body placement R = R_tree Rot(axis, q) (revolute) or
     R_tree with origin p_tree + R_tree axis q (prismatic); E = Rᵀ (book Table 5.1: X_i = X_J X_T)."""
@@ -45,7 +44,7 @@ def joint_transform(jtype, axis, R_tree, p_tree, q, E, r):
             r[a] = p_tree[a] + (R_tree[a, 0] * x + R_tree[a, 1] * y + R_tree[a, 2] * z) * q
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def motion_subspace(jtype, axis, S):
     """S_i in body coordinates: [axis; 0] for a revolute joint, [0; axis] for a prismatic one."""
     for k in range(6):
@@ -55,7 +54,7 @@ def motion_subspace(jtype, axis, S):
         S[off + k] = axis[k]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def xmotion(E, r, m, out):
     """out = X m."""
     w0, w1, w2, v0, v1, v2 = m[0], m[1], m[2], m[3], m[4], m[5]
@@ -67,7 +66,7 @@ def xmotion(E, r, m, out):
         out[3 + a] = E[a, 0] * u0 + E[a, 1] * u1 + E[a, 2] * u2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def xforce_T(E, r, f, out):
     """out = Xᵀ f (a child's force expressed in its parent's coordinates)."""
     n0, n1, n2, f0, f1, f2 = f[0], f[1], f[2], f[3], f[4], f[5]
@@ -80,7 +79,7 @@ def xforce_T(E, r, f, out):
     out[3], out[4], out[5] = g0, g1, g2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def xforce_T_add(E, r, f, out):
     """out += Xᵀ f."""
     n0, n1, n2, f0, f1, f2 = f[0], f[1], f[2], f[3], f[4], f[5]
@@ -95,7 +94,7 @@ def xforce_T_add(E, r, f, out):
     out[5] += g2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def crm_mul_add(v, m, scale, out):
     """out += scale · (v × m)."""
     w0, w1, w2, u0, u1, u2 = v[0], v[1], v[2], v[3], v[4], v[5]
@@ -108,7 +107,7 @@ def crm_mul_add(v, m, scale, out):
     out[5] += scale * (w0 * b1 - w1 * b0 + u0 * a1 - u1 * a0)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def crf_mul_add(v, f, out):
     """out += v ×* f."""
     w0, w1, w2, u0, u1, u2 = v[0], v[1], v[2], v[3], v[4], v[5]
@@ -121,7 +120,7 @@ def crf_mul_add(v, f, out):
     out[5] += w0 * f1 - w1 * f0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def inertia_mul(p, m, out):
     """out = I(p) m."""
     w0, w1, w2, v0, v1, v2 = m[0], m[1], m[2], m[3], m[4], m[5]
@@ -134,7 +133,7 @@ def inertia_mul(p, m, out):
     out[5] = mass * v2 - (h0 * w1 - h1 * w0)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def inertia_to_parent_add(E, r, p, out):
     """out += parameters of Xᵀ I(p) X: the inertia moved into the parent frame (book Table 2.8):
     m' = m, h' = Eᵀh + m r, J' = EᵀJE + m(|r|² 1 − r rᵀ) + 2 (r·g) 1 − g rᵀ − r gᵀ, g = Eᵀh."""
@@ -148,20 +147,35 @@ def inertia_to_parent_add(E, r, p, out):
     out[2] += g1 + m * r1
     out[3] += g2 + m * r2
     diag = m * (r0 * r0 + r1 * r1 + r2 * r2) + 2.0 * (r0 * g0 + r1 * g1 + r2 * g2)
-    rr = (r0, r1, r2)
-    gg = (g0, g1, g2)
-    for a in range(3):
-        for b in range(a, 3):
-            s = 0.0  # (EᵀJE)[a, b]
-            for i in range(3):
-                for j in range(3):
-                    s += E[i, a] * p[_J[i][j]] * E[j, b]
-            s += -m * rr[a] * rr[b] - gg[a] * rr[b] - rr[a] * gg[b]
+    J00, J01, J11, J02, J12, J22 = p[4], p[5], p[6], p[7], p[8], p[9]
+    for b in range(3):
+        M0 = J00 * E[0, b] + J01 * E[1, b] + J02 * E[2, b]  # (J E)[:, b]
+        M1 = J01 * E[0, b] + J11 * E[1, b] + J12 * E[2, b]
+        M2 = J02 * E[0, b] + J12 * E[1, b] + J22 * E[2, b]
+        gb = E[0, b] * p[1] + E[1, b] * p[2] + E[2, b] * p[3]
+        for a in range(b + 1):
+            ga = E[0, a] * p[1] + E[1, a] * p[2] + E[2, a] * p[3]
+            s = E[0, a] * M0 + E[1, a] * M1 + E[2, a] * M2 - m * r[a] * r[b] - ga * r[b] - r[a] * gb
             if a == b:
                 s += diag
-            out[_J[a][b]] += s
+            out[4 + a + b * (b + 1) // 2] += s  # (0,0) (0,1) (1,1) (0,2) (1,2) (2,2): Pinocchio's order
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
+def zero_vector(x):
+    """x = 0 (a plain loop: numba compiles slice assignment slowly, ~5 s a signature)."""
+    for i in range(x.shape[0]):
+        x[i] = 0.0
+
+
+@njit(cache=True, inline="always")
+def zero_matrix(M):
+    """M = 0 for a 2-D array."""
+    for i in range(M.shape[0]):
+        for j in range(M.shape[1]):
+            M[i, j] = 0.0
+
+
+@njit(cache=True, inline="always")
 def dot6(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
