@@ -4,8 +4,8 @@
 
 Two forms of every per-tick algorithm, as Pinocchio splits model and data:
 
-**Convenience API** — pure functions over (model, state) returning new arrays; each call packs
-the model and allocates a workspace, so use it in scripts and tests, not in a loop:
+**Convenience API** — pure functions over (model, state) returning new arrays; each call
+allocates a workspace and its result (~10–20 µs), so use it in scripts and tests, not in a loop:
 ``rnea``, ``mass_matrix``, ``gravity``, ``coriolis_matrix(kind)``, ``mass_matrix_dot``,
 ``regressor``, ``slotine_li_regressor(kind)``, ``forward_dynamics``.
 
@@ -35,6 +35,8 @@ Algorithms: RNEA (:mod:`rtctl.model.rnea`, Featherstone Table 5.1), CRBA
 regressors (:mod:`rtctl.model.regressor`, eq. 17).
 """
 from __future__ import annotations
+
+import weakref
 
 import numpy as np
 
@@ -101,8 +103,15 @@ def _vec(x, n: int) -> np.ndarray:
     return x
 
 
+_PACKED: "weakref.WeakKeyDictionary[Model, ModelArrays]" = weakref.WeakKeyDictionary()
+
+
 def _setup(model: Model, *vectors):
-    return (model_arrays(model), Data(model), *(_vec(v, model.nq) for v in vectors))
+    """Packed arrays (cached per Model: it is immutable), a fresh workspace, checked vectors."""
+    arrays = _PACKED.get(model)
+    if arrays is None:
+        arrays = _PACKED[model] = model_arrays(model)
+    return (arrays, Data(model), *(_vec(v, model.nq) for v in vectors))
 
 
 def rnea(model: Model, q, qd, qdd) -> np.ndarray:
