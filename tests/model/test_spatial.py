@@ -1,5 +1,6 @@
 """Property tests of the spatial-algebra identities (Featherstone 2008, ch. 2)."""
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -130,3 +131,38 @@ def test_jcalc(axis, q, jtype):
 def test_skew_and_xlt_match_the_book():
     p = np.array([1.0, 2.0, 3.0])
     np.testing.assert_array_equal(xlt(p)[3:, :3], -skew(p))
+
+
+@given(transforms(), vec6, vec6, params10)
+def test_compiled_kernels_match_the_6x6_forms(X, m, f, p):
+    from rtctl.model import spatial_kernels as sk
+
+    E = X[:3, :3]
+    r = -_unskew(E.T @ X[3:, :3])
+    out, acc, par = np.zeros(6), np.zeros(6), np.zeros(10)
+    sk.xmotion(E, r, m, out)
+    np.testing.assert_allclose(out, X @ m, atol=1e-9)
+    sk.xforce_T(E, r, f, out)
+    np.testing.assert_allclose(out, X.T @ f, atol=1e-9)
+    sk.xforce_T_add(E, r, f, acc)
+    np.testing.assert_allclose(acc, X.T @ f, atol=1e-9)
+    acc[:] = 0.0
+    sk.crm_mul_add(m, f, 2.0, acc)
+    np.testing.assert_allclose(acc, 2.0 * crm(m) @ f, atol=1e-9)
+    acc[:] = 0.0
+    sk.crf_mul_add(m, f, acc)
+    np.testing.assert_allclose(acc, crf(m) @ f, atol=1e-9)
+    sk.inertia_mul(p, m, out)
+    np.testing.assert_allclose(out, inertia(p) @ m, atol=1e-9)
+    sk.inertia_to_parent_add(E, r, p, par)
+    np.testing.assert_allclose(inertia(par), X.T @ inertia(p) @ X, atol=1e-8)
+    assert sk.dot6(m, f) == pytest.approx(m @ f)
+    for jtype in (REVOLUTE, PRISMATIC):
+        axis = m[:3] / max(np.linalg.norm(m[:3]), 1e-9) if np.linalg.norm(m[:3]) > 1e-3 else np.array([0, 0, 1.0])
+        Rt, pt = X[:3, :3].T, r  # any placement as the tree part
+        Ej, rj, S = np.zeros((3, 3)), np.zeros(3), np.zeros(6)
+        sk.joint_transform(jtype, axis, Rt, pt, f[0], Ej, rj)
+        sk.motion_subspace(jtype, axis, S)
+        XJ, S_ref = jcalc(jtype, axis, f[0])
+        np.testing.assert_allclose(plucker(Ej.T, rj), XJ @ plucker(Rt, pt), atol=1e-9)
+        np.testing.assert_allclose(S, S_ref)
