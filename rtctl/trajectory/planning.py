@@ -14,11 +14,12 @@ import numpy as np
 
 from rtctl.errors import TrajectoryError
 from rtctl.trajectory.piecewise import JointTrajectory
-from rtctl.trajectory.quintic import (coefficients, constant, extrema, fits, rest_to_rest_duration,
-                                      shortest_duration)
+from rtctl.trajectory.quintic import (braking_target, coefficients, constant, extrema, fits,
+                                      rest_to_rest_duration, shortest_duration)
 from rtctl.trajectory.smooth import fit_durations, run_coefficients
 
 _RTOL = 1e-9
+_SAME_POINT = 1e-12  # rad or m: closer points count as one (no segment between them)
 
 
 @dataclass(frozen=True, eq=False)
@@ -105,7 +106,7 @@ def through_waypoints(waypoints, limits: JointLimits, *, start=None, smooth: boo
     if durations is not None and len(durations) != n_seg:
         raise TrajectoryError(f"{n_seg} motion segments but {len(durations)} durations")
 
-    moving = np.any(points[1:] != points[:-1], axis=1)  # False for a repeated point
+    moving = np.max(np.abs(np.diff(points, axis=0)), axis=1) > _SAME_POINT  # False for a repeated point
     stop = np.ones(len(points), dtype=bool)
     if smooth:
         stop[1:-1] = (dwell_at[1:-1] > 0) | ~moving[:-1] | ~moving[1:]
@@ -161,30 +162,45 @@ def retarget(t: float, q, qd, qdd, waypoints, limits: JointLimits, *, duration: 
              smooth: bool = False, dwell=0.0) -> JointTrajectory:
     """Replace the running trajectory at time ``t`` (the control socket's ``move``): from the
     current reference state (``q``, ``qd``, ``qdd`` — position, velocity and acceleration stay
-    continuous) to rest at the first waypoint, in the shortest duration within the limits
-    (closed form from rest, else :func:`~rtctl.trajectory.quintic.shortest_duration`) or the
-    requested ``duration``; then on through the other waypoints as :func:`through_waypoints`
-    would. Raises :class:`~rtctl.errors.TrajectoryError` when no duration fits.
+    continuous) to rest at the first waypoint, then on through the others as
+    :func:`through_waypoints` would.
+
+    The first move is one quintic in the shortest duration within the limits (closed form
+    from rest, else :func:`~rtctl.trajectory.quintic.shortest_duration`) or in the requested
+    ``duration``. When no single quintic fits (a fast joint must stop while another barely
+    moves), it brakes first — to :func:`~rtctl.trajectory.quintic.braking_target` — and then
+    moves from rest. Raises :class:`~rtctl.errors.TrajectoryError` when even braking cannot
+    stay within the limits, or when the requested duration does not.
     """
     q, qd, qdd = (np.asarray(x, float) for x in (q, qd, qdd))
     W = np.atleast_2d(np.asarray(waypoints, float))
     limits.check_position(q, "start")
     rest = through_waypoints(W, limits, smooth=smooth, dwell=dwell)  # validates the waypoints
     at_rest = not (np.any(qd) or np.any(qdd))
-    if duration is not None:
-        T = float(duration)
-    elif at_rest:
-        T = rest_to_rest_duration(W[0] - q, limits.v_max, limits.a_max)
+    T_all, C_all = ([], []) if rest.duration == 0.0 else (list(np.diff(rest.knots)), list(rest.coeffs))
+    if duration is not None or at_rest:
+        T = float(duration) if duration is not None else rest_to_rest_duration(W[0] - q, limits.v_max, limits.a_max)
+        moves = [] if duration is None and T == 0.0 else [(T, W[0])]  # from rest at W[0]: nothing to do
     else:
-        T = shortest_duration(q, qd, qdd, W[0], limits.v_max, limits.a_max, limits.q_min, limits.q_max)
-        if T is None:
-            raise TrajectoryError("no duration brings the current motion to the target within the limits")
-    T_all, C_all = list(np.diff(rest.knots)), list(rest.coeffs)
-    if not (at_rest and np.array_equal(q, W[0])):
-        c0 = coefficients(q, qd, qdd, W[0], 0.0, 0.0, T)
-        _check(c0, T, limits, 0)
-        if rest.duration == 0.0:  # nothing after the first waypoint: drop the hold segment
-            T_all, C_all = [], []
-        T_all.insert(0, T)
-        C_all.insert(0, c0)
-    return JointTrajectory.from_segments(t, T_all, np.array(C_all))
+        lim = (limits.v_max, limits.a_max, limits.q_min, limits.q_max)
+        T = shortest_duration(q, qd, qdd, W[0], *lim)
+        if T is not None:
+            moves = [(T, W[0])]
+        else:  # brake, then move from rest
+            T = shortest_duration(q, qd, qdd, None, *lim)
+            if T is None:
+                raise TrajectoryError("no duration brings the current motion to rest within the limits")
+            q_stop = braking_target(q, qd, qdd, T)
+            moves = [(T, q_stop), (rest_to_rest_duration(W[0] - q_stop, limits.v_max, limits.a_max), W[0])]
+            if moves[1][0] == 0.0:
+                moves.pop()
+    T_first, C_first, start = [], [], (q, qd, qdd)
+    for T, end in moves:
+        c = coefficients(*start, end, 0.0, 0.0, T)
+        _check(c, T, limits, len(T_first))
+        T_first.append(T)
+        C_first.append(c)
+        start = (end, 0.0, 0.0)
+    if not T_first and not T_all:
+        return hold(W[0], t)
+    return JointTrajectory.from_segments(t, T_first + T_all, np.array(C_first + C_all))

@@ -17,9 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rtctl.trajectory.quintic import coefficients, limit_ratio, rest_to_rest_duration
-
-T_MIN = 1e-3  # s, floor for a segment's duration while fitting
+from rtctl.trajectory.quintic import T_MIN, coefficients, limit_ratio, rest_to_rest_duration
 
 
 def via_states(points, T):
@@ -53,11 +51,10 @@ def fit_durations(points, v_max, a_max, iterations: int = 20) -> np.ndarray:
     duration moves its neighbours' via states, so this only approaches a fit; a final
     uniform time scaling by the largest ratio then makes it exact.
     """
-    T = np.array([max(rest_to_rest_duration(points[k + 1] - points[k], v_max, a_max), T_MIN)
-                  for k in range(len(points) - 1)])
+    T = np.array([rest_to_rest_duration(points[k + 1] - points[k], v_max, a_max) for k in range(len(points) - 1)])
     for _ in range(iterations):
         r = _ratios(points, T, v_max, a_max)
         if np.all(np.abs(r - 1.0) < 0.01):
             break
         T = np.maximum(T * r, T_MIN)
-    return T * _ratios(points, T, v_max, a_max).max()
+    return np.maximum(T * _ratios(points, T, v_max, a_max).max(), T_MIN)

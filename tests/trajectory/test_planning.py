@@ -2,7 +2,7 @@
 sampling, continuity by finite differences, refusals."""
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 
 from rtctl.errors import TrajectoryError
 from rtctl.trajectory import JointLimits, JointTrajectory, hold, point_to_point, through_waypoints
@@ -147,6 +147,8 @@ pts = st.lists(st.lists(st.floats(-2.0, 2.0), min_size=3, max_size=3), min_size=
 
 @settings(max_examples=25, deadline=None)
 @given(W=pts, smooth=st.booleans(), dwell=st.sampled_from([0.0, 0.1]))
+@example(W=[[0.0, 0.0, 0.0], [0.0, 0.0, 1.4e-174]], smooth=False, dwell=0.0)  # T⁵ underflow, found by hypothesis
+@example(W=[[0.0, 0.0, 0.0], [1e-10, 0.0, 0.0], [1.0, 1e-10, 0.0], [1.0, 1.0, 1.0]], smooth=True, dwell=0.0)
 def test_random_waypoints_respect_limits_and_pass_through(W, smooth, dwell):
     lim = JointLimits([1.0, 1.5, 2.0], [2.0, 3.0, 1.0])
     tr = through_waypoints(W, lim, smooth=smooth, dwell=dwell)

@@ -3,8 +3,8 @@ min-jerk peaks (15/8 Δ/T, 10/√3 Δ/T²) and dense sampling."""
 import numpy as np
 import pytest
 
-from rtctl.trajectory.quintic import (PEAK_ACCELERATION, PEAK_VELOCITY, coefficients, extrema,
-                                      rest_to_rest_duration, shortest_duration)
+from rtctl.trajectory.quintic import (_FINE, PEAK_ACCELERATION, PEAK_VELOCITY, braking_target, coefficients,
+                                      extrema, rest_to_rest_duration, shortest_duration)
 
 
 def _solve(q0, v0, a0, q1, v1, a1, T):
@@ -65,7 +65,7 @@ def test_shortest_duration_scan_finds_the_closed_form_from_rest():
         vm, am = rng.uniform(0.5, 2, 4), rng.uniform(0.5, 4, 4)
         closed = rest_to_rest_duration(q1 - q0, vm, am)
         T = shortest_duration(q0, np.zeros(4), np.zeros(4), q1, vm, am)
-        assert closed * (1 - 1e-9) <= T <= closed * 1.021
+        assert closed * (1 - 1e-9) <= T <= closed * _FINE[1] / _FINE[0] * 1.001
 
 
 def test_shortest_duration_with_initial_motion_fits_and_is_short():
@@ -74,6 +74,15 @@ def test_shortest_duration_with_initial_motion_fits_and_is_short():
     T = shortest_duration(q0, v0, a0, q1, vm, am)
     e = extrema(coefficients(q0, v0, a0, q1, 0, 0, T), T)
     assert e[2, 0] <= 1.0 + 1e-9 and e[3, 0] <= 2.0 + 1e-9
-    Tm = T / 1.02  # the previous candidate did not fit
+    Tm = T * _FINE[0] / _FINE[1]  # the previous candidate did not fit
     e = extrema(coefficients(q0, v0, a0, q1, 0, 0, Tm), Tm)
     assert e[2, 0] > 1.0 or e[3, 0] > 2.0
+
+
+def test_braking_quintic_has_a_cubic_velocity_decay():
+    q0, v0, a0, T = np.array([0.3]), np.array([0.8]), np.array([1.0]), 0.7
+    c = coefficients(q0, v0, a0, braking_target(q0, v0, a0, T), 0.0, 0.0, T)
+    assert abs(c[0, 5]) < 1e-12  # quartic position
+    s = np.linspace(0, 1, 1001)
+    v = np.polynomial.polynomial.polyval(s * T, np.polynomial.polynomial.polyder(c[0]))
+    np.testing.assert_allclose(v, 0.8 * (1 - s) ** 2 * (1 + 2 * s) + 1.0 * T * s * (1 - s) ** 2, atol=1e-12)

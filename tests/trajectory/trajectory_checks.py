@@ -2,9 +2,9 @@
 import numpy as np
 
 
-def dense(traj, dt=2e-4, pad=0.05):
-    """Sample a trajectory densely (with ``pad`` s before and after): t, q, qd, qdd arrays."""
-    ts = np.arange(traj.t_start - pad, traj.t_end + pad, dt)
+def dense(traj, dt=2e-4, pad=0.05, before=True):
+    """Sample a trajectory densely (with ``pad`` s after, and before if ``before``): t, q, qd, qdd."""
+    ts = np.arange(traj.t_start - pad * before, traj.t_end + pad, dt)
     out = np.empty((3, len(ts), traj.n))
     for i, t in enumerate(ts):
         traj.sample(t, out[0, i], out[1, i], out[2, i])
@@ -28,8 +28,9 @@ def jerk_bound(traj):
 def assert_continuous(traj, dt=2e-4):
     """q̇ and q̈ agree with central differences of q and q̇ everywhere, knots included. A jump
     of δ in q, q̇ or q̈ would show as an error of about δ/(2 dt), δ/2 or δ/2, against bounds of
-    jerk·dt²/6 and jerk·dt (Taylor remainders) plus rounding."""
-    ts, q, qd, qdd = dense(traj, dt)
+    jerk·dt²/6 and jerk·dt (Taylor remainders) plus rounding. From the start on: before it the
+    start state is held as it is (with its velocity, when a retarget starts moving)."""
+    ts, q, qd, qdd = dense(traj, dt, before=False)
     fd_v = (q[2:] - q[:-2]) / (2 * dt)
     fd_a = (qd[2:] - qd[:-2]) / (2 * dt)
     j = jerk_bound(traj)
