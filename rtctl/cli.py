@@ -66,10 +66,10 @@ def _parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
-                                        "control-socket"),
+                                        "control-socket", "safety", "trajectory"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
                             "PUMA 560; loop-timing: an empty loop (like cyclictest); can: codec and transports; "
-                            "control: the Slotine–Li laws; telemetry, control-socket: their per-tick costs")
+                            "control: the Slotine–Li laws; telemetry, control-socket, safety, trajectory: their per-tick costs")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
     bench.add_argument("--config", default=None, help="run configuration for `bench loop` (default: the shipped one)")

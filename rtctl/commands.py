@@ -93,6 +93,11 @@ def bench(args) -> int:
         from rtctl.bench.control_socket import bench_control_socket as run, format_table
 
         result = run()
+    elif args.what in ("safety", "trajectory"):
+        from importlib import import_module
+
+        module = import_module(f"rtctl.bench.{args.what}")
+        result, format_table = getattr(module, f"bench_{args.what}")(), module.format_table
     elif args.what == "loop-timing":
         from rtctl.bench.loop_timing import bench_loop_timing as run, format_table
 

@@ -69,7 +69,6 @@ class TrajectoryConfig:
     dwell: float = 0.0
     velocity_scale: float = 0.5  # fraction of the robot's velocity limits
     max_acceleration: np.ndarray | None = None
-    repeat: bool = False
 
 
 @dataclass(frozen=True)
@@ -255,7 +254,7 @@ def _trajectory(t: Table | None, model: Model) -> TrajectoryConfig | None:
     cfg = TrajectoryConfig(
         waypoints=wp, smooth=t.bool("smooth", True), dwell=t.float("dwell", 0.0, min=0.0),
         velocity_scale=t.float("velocity_scale", 0.5, positive=True, max=1.0),
-        max_acceleration=None if acc is None else acc * scale, repeat=t.bool("repeat", False))
+        max_acceleration=None if acc is None else acc * scale)
     t.done()
     return cfg
 

@@ -38,6 +38,7 @@ from rtctl.timing import PHASES, Ticker, apply_rt
 from rtctl.trajectory import JointLimits, hold, retarget, through_waypoints
 
 EXIT_OK, EXIT_FAULT, EXIT_HARDWARE = 0, 3, 4
+CONTROLLED_STOP = "controlled stop"  # the reason prefix of a stop that is not a fault
 STOP_GRACE_S = 5.0  # longest a controlled stop may take before the drives are cut regardless
 
 log = structlog.get_logger("rtctl.daemon")
@@ -165,7 +166,7 @@ class Daemon:
                     self.stop_reason = "duration reached"
                 if self.stop_reason is not None and stopping_since is None:
                     stopping_since = t
-                    safety.estop(self.stop_reason)  # category-1: damp, then drives off
+                    safety.estop(f"{CONTROLLED_STOP}: {self.stop_reason}")  # category 1: damp, then drives off
                 verdict = tick(t)
                 if server is not None:
                     server.poll()
@@ -205,10 +206,26 @@ class Daemon:
             self._fault("operator e-stop")
             return {"ok": True}
         if cmd == "reset":
-            return {"ok": bool(self.safety.reset()), "faults": [f.reason for f in self.safety.faults]}
+            return self._reset()
         if cmd == "move":
             return self._move(req)
         raise RtctlError(f"unknown command {cmd!r}")
+
+    def _reset(self) -> dict:
+        """Clear the faults whose cause is gone; then hold where the robot is (the old
+        reference moved on while the fallback held) with fresh controllers."""
+        if self.stop_reason is not None:
+            raise RtctlError(f"the daemon is stopping ({self.stop_reason})")
+        if not self.safety.reset():
+            return {"ok": False, "faults": [f.reason for f in self.safety.faults]}
+        state, ref, t = self.rt.state, self.rt.ref, self.ticker.sim_time_s
+        self.tick.trajectory = hold(state.position.copy(), t)
+        self.tick.trajectory.sample(t, ref.q, ref.qd, ref.qdd)
+        for c in self.rt.controllers:
+            c.reset(state)
+        for dev in self.rt.devices:
+            dev.activate()
+        return {"ok": True, "faults": []}
 
     def _move(self, req: dict):
         if self.safety.faulted:
@@ -275,7 +292,7 @@ class Daemon:
                  compute_p99_us=(timing.get("compute_us") or {}).get("tick", {}).get("p99"),
                  tracking_rms_rad=summary["tracking_error_rad"]["rms_all"],
                  tracking_max_rad=summary["tracking_error_rad"]["max_all"],
-                 faults=len(summary["safety"].get("faults", [])))
+                 faults=sum(not f["reason"].startswith(CONTROLLED_STOP) for f in summary["safety"].get("faults", [])))
 
 
 def _trajectory_limits(cfg) -> JointLimits:

@@ -25,6 +25,7 @@ class Tick:
         self.trajectory = None  # set by the daemon; replaced by `move`
         n = runtime.model.nq
         self.statuses = np.zeros(len(runtime.devices), dtype=np.int64)
+        self.write_statuses = np.zeros(len(runtime.devices), dtype=np.int64)  # carried to the next check
         self.verdict = Verdict.OK
         self.controller_error: str | None = None
         self._e = np.zeros(n)
@@ -38,7 +39,8 @@ class Tick:
         state, command, ref = rt.state, rt.command, rt.ref
 
         for i, dev in enumerate(rt.devices):
-            self.statuses[i] = dev.read(t)
+            self.statuses[i] = max(dev.read(t), self.write_statuses[i])  # a failed write counts too
+            self.write_statuses[i] = Status.OK
             idx, s = rt.device_joints[i], dev.state
             np.put(state.position, idx, s.position)
             np.put(state.velocity, idx, s.velocity)
@@ -71,8 +73,7 @@ class Tick:
             np.take(command.qd_des, idx, out=c.qd_des)
             np.take(command.kp, idx, out=c.kp)
             np.take(command.kd, idx, out=c.kd)
-            if dev.write(t) != Status.OK:
-                self.statuses[i] = Status.ERROR  # seen by the safety stage next tick
+            self.write_statuses[i] = dev.write(t)  # seen by the safety stage next tick
         ticker.mark(WRITE)
 
         if self.verdict == Verdict.OK:  # tracking is the controllers' while they are in charge

@@ -17,6 +17,25 @@ from rtctl.errors import ConfigError
 _MISSING = object()
 
 
+class _Default(Exception):
+    """Raised by ``Table._get`` for an absent key: the typed readers return the default
+    as given, unchecked (a default may be None, ±inf or an array)."""
+
+    def __init__(self, value):
+        self.value = value
+
+
+def _default_if_absent(read):
+    def wrapper(self, name, *args, **kwargs):
+        try:
+            return read(self, name, *args, **kwargs)
+        except _Default as d:
+            return d.value
+
+    wrapper.__doc__, wrapper.__name__ = read.__doc__, read.__name__
+    return wrapper
+
+
 def load_toml(path) -> "Table":
     path = Path(path)
     try:
@@ -51,36 +70,34 @@ class Table:
             return self.data[name]
         if default is _MISSING:
             raise self.error(name, f"missing; expected {expected}")
-        return default
+        raise _Default(default)
 
+    @_default_if_absent
     def str(self, name, default=_MISSING, choices=None) -> str:
         expected = f"one of {', '.join(map(repr, choices))}" if choices else "a string"
         value = self._get(name, default, expected)
-        if value is default and default is not _MISSING:
-            return value
         if not isinstance(value, str) or (choices and value not in choices):
             raise self.error(name, f"{expected}, got {value!r}")
         return value
 
+    @_default_if_absent
     def bool(self, name, default=_MISSING) -> bool:
         value = self._get(name, default, "true or false")
         if not isinstance(value, bool):
             raise self.error(name, f"true or false, got {value!r}")
         return value
 
+    @_default_if_absent
     def float(self, name, default=_MISSING, *, min=None, max=None, positive=False) -> float:
         value = self._get(name, default, "a number")
-        if value is None and default is None:
-            return None
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             raise self.error(name, f"a finite number, got {value!r}")
         self._check_range(name, value, min, max, positive)
         return float(value)
 
+    @_default_if_absent
     def int(self, name, default=_MISSING, *, min=None, max=None) -> int:
         value = self._get(name, default, "an integer")
-        if value is None and default is None:
-            return None
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(name, f"an integer, got {value!r}")
         self._check_range(name, value, min, max, False)
@@ -94,11 +111,10 @@ class Table:
         if hi is not None and value > hi:
             raise self.error(name, f"a number ≤ {hi}, got {value!r}")
 
+    @_default_if_absent
     def vector(self, name, length=None, default=_MISSING) -> np.ndarray:
         expected = f"an array of {length} numbers" if length else "an array of numbers"
         value = self._get(name, default, expected)
-        if value is None and default is None:
-            return None
         ok = isinstance(value, list) and all(
             isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in value
         )
@@ -106,20 +122,21 @@ class Table:
             raise self.error(name, f"{expected}, got {value!r}")
         return np.array(value, dtype=float)
 
+    @_default_if_absent
     def table(self, name, default=_MISSING) -> "Table":
         value = self._get(name, default, "a table")
-        if value is None and default is None:
-            return None
         if not isinstance(value, dict):
             raise self.error(name, f"a table, got {value!r}")
         return Table(value, self.file, self.key(name))
 
+    @_default_if_absent
     def tables(self, name, default=_MISSING) -> list["Table"]:
         value = self._get(name, default, "an array of tables")
         if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
             raise self.error(name, f"an array of tables ([[{self.key(name)}]]), got {value!r}")
         return [Table(v, self.file, f"{self.key(name)}[{i}]") for i, v in enumerate(value)]
 
+    @_default_if_absent
     def raw(self, name, default=_MISSING):
         return self._get(name, default, "a value")
 

@@ -115,3 +115,21 @@ def test_daemon_not_running_is_a_clear_error(tmp_path):
     result = rtctl("status", "--socket", tmp_path / "none.sock")
     assert result.returncode == 6
     assert "Traceback" not in result.stderr and "none.sock" in result.stderr
+
+
+def test_estop_is_a_controlled_stop_then_drives_off_and_exit_3(write_config, daemon, tmp_path):
+    telemetry = tmp_path / "estop.msgpack"
+    d = daemon(write_config(PACED), "--telemetry", telemetry)
+    d.wait_ready()
+    time.sleep(0.5)
+    assert rtctl("estop", "--socket", d.socket).returncode == 0
+    code, out, err = d.finish()
+    assert code == 3, err
+    summary = json.loads(d.summary.read_text())
+    assert any(f["reason"] == "operator e-stop" for f in summary["safety"]["faults"])
+    assert summary["safety"]["deactivated"]
+    assert all(dev["lifecycle"] == "closed" for dev in summary["devices"].values())
+    run = read(telemetry)
+    assert run.rows == summary["timing"]["ticks"]
+    # after the e-stop the motion is damped: the last recorded velocities are small
+    assert np.abs(run["qd"][-1]).max() < 0.05
