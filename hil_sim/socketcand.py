@@ -194,7 +194,8 @@ class SocketcandServer:
             return
         extended = len(words[1]) == 8
         self.counters["frames_in"] += 1
-        self._broadcast(client.bus, [(arbitration_id, data, extended)], client)  # other clients see it
+        if len(self._clients) > 1:  # other clients on the bus see the frame
+            self._broadcast(client.bus, [(arbitration_id, data, extended)], client)
         client.bus.receive(arbitration_id, data, now, out, extended)
 
     def _broadcast(self, bus: MitDriveBus, frames: list, sender: _Client | None) -> None:
