@@ -194,6 +194,7 @@ class MitDriveBus:
         self.master_ids = {d.master_id for d in drives}
         self.ignored = 0  # frames for nobody on this bus (other ids, extended ids)
         self._delayed: list = []  # heap of (due, seq, arbitration_id, payload)
+        self._actions: list = []  # heap of (when, seq, action): scheduled fault injections
         self._seq = 0
 
     def receive(self, arbitration_id: int, data, now: float, out: list, is_extended: bool = False) -> None:
@@ -215,9 +216,18 @@ class MitDriveBus:
         else:
             out.append((drive.master_id, reply))
 
+    def call_at(self, when: float, action: Callable[[], None]) -> None:
+        """Run ``action()`` at time ``when`` (on the clock the bus is given), from
+        :meth:`service`: e.g. ``bus.call_at(t0 + 2, lambda: setattr(drive.faults, "silent", True))``
+        or a server's ``drop_connections`` — faults scripted for HIL scenarios."""
+        self._seq += 1
+        heapq.heappush(self._actions, (when, self._seq, action))
+
     def service(self, now: float, out: list) -> None:
-        """Advance the plant, run the watchdogs, append the delayed replies now due."""
+        """Advance the plant, run the watchdogs and due actions, append the delayed replies now due."""
         self.unserviced = 0
+        while self._actions and self._actions[0][0] <= now:
+            heapq.heappop(self._actions)[2]()
         if self.advance is not None:
             self.advance(now)
         else:
@@ -228,9 +238,11 @@ class MitDriveBus:
             out.append((arbitration_id, payload))
 
     def next_deadline(self) -> float | None:
-        """When :meth:`service` must run next at the latest (a delayed reply, a watchdog, an
-        incomplete cycle)."""
+        """When :meth:`service` must run next at the latest (a delayed reply, a scheduled
+        action, a watchdog, an incomplete cycle)."""
         first = self._delayed[0][0] if self._delayed else math.inf
+        if self._actions:
+            first = min(first, self._actions[0][0])
         if self.unserviced:
             first = min(first, self._first_unserviced + self.max_staleness)
         for d in self.drives.values():

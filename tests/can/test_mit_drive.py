@@ -178,3 +178,18 @@ def test_array_port_drives_one_joint_of_a_multi_joint_plant():
     c = d.command  # v_des and t_ff decode to −65/4095 and −18/4095, not 0
     assert tau[0] == 0.0 and tau[1] == pytest.approx(c.kd * (c.v + 0.2) + c.t, rel=1e-12)
     assert mit.unpack_reply(d._answer(), KATZ).position == pytest.approx(0.5, abs=25 / 65535)
+
+
+def test_scheduled_fault_injection():
+    drive = MitDrive(1, Port())
+    bus = MitDriveBus([drive])
+    bus.call_at(2.0, lambda: setattr(drive.faults, "silent", True))
+    out = []
+    bus.receive(1, ENTER, 1.0, out)
+    assert len(out) == 1 and bus.next_deadline() <= 2.0
+    bus.service(1.999, out)
+    assert not drive.faults.silent
+    bus.service(2.0, out)
+    out.clear()
+    bus.receive(1, ENTER, 2.001, out)
+    assert drive.faults.silent and out == []
