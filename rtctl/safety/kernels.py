@@ -133,7 +133,9 @@ def fallback(mode, kind, q, qd, q_des, qd_des, kp, kd, tau_ff, lim, fb):  # prag
 
     FB_HOLD: PD to the position held at the fault with damping, plus the gravity torque there
     when known: τ = K_h(q_hold − q) − D q̇ + τ_hold (in impedance mode the drive closes it);
-    FB_DAMP: τ = −D q̇; FB_OFF: zero. A joint whose state is not finite gets damping if its
+    FB_DAMP: τ = −D q̇ + τ_hold (damping that carries the arm's weight as it was at the fault,
+    so a controlled stop decelerates instead of sagging; τ_hold = 0 when gravity is unknown);
+    FB_OFF: zero. A joint whose state is not finite gets damping if its
     velocity is finite, else zero torque. Torques are clamped to ±tau_max. Returns the
     largest |q̇| (inf if one is not finite), to tell when a stop is complete.
     """
@@ -159,7 +161,7 @@ def fallback(mode, kind, q, qd, q_des, qd_des, kp, kd, tau_ff, lim, fb):  # prag
                 q_des[j] = q[j] if np.isfinite(q[j]) else 0.0
                 kp[j] = 0.0
                 kd[j] = fb[DAMP_KD, j] if k == FB_DAMP else 0.0
-                tau_ff[j] = 0.0
+                tau_ff[j] = min(max(fb[TAU_HOLD, j], -tmax), tmax) if k == FB_DAMP else 0.0
         else:
             q_des[j] = 0.0
             qd_des[j] = 0.0
@@ -168,7 +170,7 @@ def fallback(mode, kind, q, qd, q_des, qd_des, kp, kd, tau_ff, lim, fb):  # prag
             if k == FB_HOLD:
                 tau = fb[HOLD_KP, j] * (fb[Q_HOLD, j] - q[j]) - fb[HOLD_KD, j] * qd[j] + fb[TAU_HOLD, j]
             elif k == FB_DAMP:
-                tau = -fb[DAMP_KD, j] * qd[j]
+                tau = -fb[DAMP_KD, j] * qd[j] + fb[TAU_HOLD, j]
             else:
                 tau = 0.0
             tau_ff[j] = min(max(tau, -tmax), tmax)
