@@ -12,6 +12,7 @@ from rtctl.control.base import Controller, Reference
 CONTROLLERS = {
     "pd_gravity": "rtctl.control.pd_gravity:PDGravity",
     "computed_torque": "rtctl.control.computed_torque:ComputedTorque",
+    "slotine_li": "rtctl.control.slotine_li:SlotineLi",
 }
 
 

@@ -1,0 +1,131 @@
+"""Keeping adapted inertial parameters physically consistent, without breaking the Lyapunov
+argument of the adaptive law.
+
+A link's 10 parameters π = (m, h = m c, J) (Pinocchio's order, J about the link origin) belong
+to some mass distribution iff its 4×4 pseudo-inertia is positive semidefinite
+(Wensing, Kim & Slotine, IEEE RA-L 2018):
+
+    P(π) = [[Σ, h], [hᵀ, m]],   Σ = ½ tr(J) 1 − J   (the second moments ∫ x xᵀ dm)
+
+P(π) ⪰ 0 implies m ≥ 0, J ⪰ 0 and the triangle inequalities. The set C = {π : P(π) ⪰ 0} is a
+convex cone (a linear matrix inequality), and the true parameters lie in it.
+
+**The projection.** If P(π̂) has an eigenvalue λ < 0 with unit eigenvector x, the half-space
+H_x = {π : xᵀ P(π) x ≥ 0} = {π : a_x·π ≥ 0} contains C (a_x is linear in x xᵀ), and π̂ is
+moved to its P⁻¹-metric projection onto H_x (P the adaptation gain of the link, diagonal):
+
+    π̂ ← π̂ − (a_x·π̂ / a_xᵀ P a_x) P a_x
+
+A projection onto a convex set containing π is non-expansive towards π:
+‖π̂⁺ − π‖_{P⁻¹} ≤ ‖π̂ − π‖_{P⁻¹}. So every correction can only lower the parameter part
+½ π̃ᵀ P⁻¹ π̃ of V, and the Lyapunov argument survives. Corrections repeat (at most
+``MAX_CORRECTIONS`` times) until λ_min(P(π̂)) ≥ −TOLERANCE · tr P(π̂); the result is then within
+that tolerance of C (a sequence of half-space projections converges to C but need not reach it
+in finitely many steps).
+"""
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+MAX_CORRECTIONS = 8
+TOLERANCE = 1e-9
+
+
+@njit(cache=True, inline="always")
+def pseudo_inertia(p, out):
+    """out (4, 4) = P(π)."""
+    half_trace = 0.5 * (p[4] + p[6] + p[9])
+    out[0, 0], out[1, 1], out[2, 2] = half_trace - p[4], half_trace - p[6], half_trace - p[9]
+    out[0, 1] = out[1, 0] = -p[5]
+    out[0, 2] = out[2, 0] = -p[7]
+    out[1, 2] = out[2, 1] = -p[8]
+    for a in range(3):
+        out[a, 3] = out[3, a] = p[1 + a]
+    out[3, 3] = p[0]
+
+
+@njit(cache=True, inline="always")
+def quadratic_form_gradient(x, out):
+    """out (10,) = a_x with xᵀ P(π) x = a_x·π."""
+    x0, x1, x2, x3 = x[0], x[1], x[2], x[3]
+    out[0] = x3 * x3
+    out[1], out[2], out[3] = 2.0 * x3 * x0, 2.0 * x3 * x1, 2.0 * x3 * x2
+    out[4] = 0.5 * (-x0 * x0 + x1 * x1 + x2 * x2)
+    out[5] = -2.0 * x0 * x1
+    out[6] = 0.5 * (x0 * x0 - x1 * x1 + x2 * x2)
+    out[7] = -2.0 * x0 * x2
+    out[8] = -2.0 * x1 * x2
+    out[9] = 0.5 * (x0 * x0 + x1 * x1 - x2 * x2)
+
+
+@njit(cache=True)
+def symmetric_eigen4(A, V):
+    """Cyclic Jacobi on the symmetric 4×4 ``A`` (destroyed): eigenvalues on its diagonal,
+    eigenvectors in the columns of ``V``."""
+    for a in range(4):
+        for b in range(4):
+            V[a, b] = 1.0 if a == b else 0.0
+    for _ in range(50):
+        off, scale = 0.0, 0.0
+        for a in range(4):
+            scale += A[a, a] * A[a, a]
+            for b in range(a + 1, 4):
+                off += A[a, b] * A[a, b]
+        if off <= 1e-30 * scale or off == 0.0:
+            return
+        for p in range(3):
+            for q in range(p + 1, 4):
+                apq = A[p, q]
+                if apq == 0.0:
+                    continue
+                theta = (A[q, q] - A[p, p]) / (2.0 * apq)
+                t = 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
+                if theta < 0.0:
+                    t = -t
+                c = 1.0 / math.sqrt(t * t + 1.0)
+                s = t * c
+                for k in range(4):  # A ← A R, V ← V R
+                    akp, akq = A[k, p], A[k, q]
+                    A[k, p], A[k, q] = c * akp - s * akq, s * akp + c * akq
+                    vkp, vkq = V[k, p], V[k, q]
+                    V[k, p], V[k, q] = c * vkp - s * vkq, s * vkp + c * vkq
+                for k in range(4):  # A ← Rᵀ A
+                    apk, aqk = A[p, k], A[q, k]
+                    A[p, k], A[q, k] = c * apk - s * aqk, s * apk + c * aqk
+
+
+@njit(cache=True)
+def project_link(p, gamma, A, V, a):
+    """Move one link's π̂ (``p``, in place) towards C by P⁻¹-metric half-space projections
+    (module docstring); A, V (4, 4) and a (10,) scratch. Returns the number of corrections."""
+    for count in range(MAX_CORRECTIONS + 1):
+        pseudo_inertia(p, A)
+        trace = A[0, 0] + A[1, 1] + A[2, 2] + A[3, 3]
+        symmetric_eigen4(A, V)
+        low = 0
+        for k in range(1, 4):
+            if A[k, k] < A[low, low]:
+                low = k
+        if A[low, low] >= -TOLERANCE * abs(trace) or count == MAX_CORRECTIONS:
+            return count
+        quadratic_form_gradient(V[:, low], a)
+        value, norm = 0.0, 0.0
+        for k in range(10):
+            value += a[k] * p[k]
+            norm += a[k] * gamma[k] * a[k]
+        if norm == 0.0:  # a zero gain freezes the link: nothing may move it
+            return count
+        for k in range(10):
+            p[k] -= value / norm * gamma[k] * a[k]
+    return MAX_CORRECTIONS
+
+
+@njit(cache=True)
+def project_consistent(params, gamma, A, V, a):
+    """:func:`project_link` for every link; returns the total number of corrections."""
+    total = 0
+    for i in range(params.shape[0]):
+        total += project_link(params[i], gamma[i], A, V, a)
+    return total

@@ -1,0 +1,175 @@
+"""Slotine–Li adaptive control on the C* model (Huo, Gao & Cheng) or the classic Christoffel
+model (Niemeyer & Slotine 1988); spec/cstar_slotine_li.md §3, equations (18)-(42) of seeds/000.
+
+    q̃ = q − q_d,  q̇_r = q̇_d − Λ q̃,  q̈_r = q̈_d − Λ (q̇ − q̇_d),  s = q̇ − q̇_r
+    τ = Ĥ q̈_r + Ĉ q̇_r + Ĝ − K_D s                        (18) / (29), Ĉ = C (classic) or C* (cstar)
+    dπ̂/dt = −P Yᵀ(q, q̇, q̇_r, q̈_r) s                      (19) / (30)
+
+Both are computed by the O(n) recursions of :mod:`rtctl.control.slotine_li_kernels`, one
+compiled call per tick. Λ, K_D diagonal (per joint); P diagonal (per link and parameter).
+
+**Integration.** dπ̂/dt is integrated at the controller's rate by explicit Euler: tick k applies
+π̂ ← π̂ + (t_k − t_{k−1}) · dπ̂/dt|_{k−1} and then computes τ_k with the new π̂ — the step is
+the time actually elapsed since the previous update (period × divisor in a regular loop).
+
+**Options and the guarantees** (continuous time, exact model of the rigid body):
+``V = ½ sᵀ H s + ½ π̃ᵀ P⁻¹ π̃`` has dV/dt = −sᵀ K_D s ≤ 0 (Proposition 2 makes this hold for
+C* as for C), so s → 0, q̃ → 0 and π̂ stays bounded (not necessarily → π: that needs
+persistent excitation).
+
+* ``projection = True``: after each Euler step every link's π̂ is moved towards the physically
+  consistent set (pseudo-inertia ⪰ 0, :mod:`rtctl.control.consistency`) by projections in the
+  P⁻¹ metric onto half-spaces that contain that set. Each one is non-expansive towards the
+  true π, so it never increases V: the argument above is intact, and Ĥ stays positive
+  semidefinite (to the stated tolerance), so the feed-forward never has a negative mass.
+* ``dead_zone = δ > 0``: adaptation stops while ‖s‖ ≤ δ. With bounded unmodelled torques d
+  (noise, friction) and δ ≥ ‖d‖_max / λ_min(K_D), V decreases whenever it adapts, so π̂ cannot
+  drift (parameter drift is what noise does to the plain law); the price is that s converges
+  only into the ball ‖s‖ ≤ δ, i.e. a residual tracking error of about δ / λ_min(Λ) per joint,
+  even with a perfect plant.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from rtctl.control.base import Controller
+from rtctl.control.consistency import project_consistent
+from rtctl.control.gains import per_joint
+from rtctl.control.slotine_li_kernels import BODY_SLOTS, CLASSIC, CSTAR, PHI_VECTORS, TMP_VECTORS, \
+    slotine_li_kernel, slotine_li_update_kernel
+from rtctl.model.dynamics import model_arrays
+
+LAWS = {"cstar": CSTAR, "classic": CLASSIC}
+PARAMS0 = ("true", "zeros", "scaled")
+
+
+def initial_params(model, params0="true", params_scale=1.0) -> np.ndarray:
+    """π̂(0) as an (n, 10) array: ``"true"`` (the model's), ``"zeros"``, ``"scaled"`` (the
+    model's times ``params_scale``, one number or one per link), a path (``.npy`` with n × 10
+    numbers, or ``.toml`` with ``params = [[10 numbers] × n]``), or an array."""
+    n = model.nq
+    if isinstance(params0, str) and params0 in PARAMS0:
+        if params0 == "zeros":
+            return np.zeros((n, 10))
+        scale = np.broadcast_to(np.asarray(params_scale if params0 == "scaled" else 1.0, float), (n,))
+        return model.params * scale[:, None]
+    if isinstance(params0, (str, Path)):
+        path = Path(params0)
+        if path.suffix == ".npy":
+            params0 = np.load(path)
+        else:
+            from rtctl.tomltable import load_toml
+
+            t = load_toml(path)
+            params0 = t.raw("params")
+    p = np.array(params0, dtype=float).reshape(n, 10)
+    if not np.all(np.isfinite(p)):
+        raise ValueError("initial parameter estimates must be finite")
+    return p
+
+
+def adaptation_gains(gamma, n: int) -> np.ndarray:
+    """P as (n, 10): one number, one per link, or 10 per link."""
+    g = np.asarray(gamma, dtype=float)
+    if g.ndim == 0:
+        g = np.full((n, 10), float(g))
+    elif g.shape == (n,):
+        g = np.repeat(g[:, None], 10, axis=1)
+    if g.shape != (n, 10) or np.any(g < 0) or not np.all(np.isfinite(g)):
+        raise ValueError(f"gamma must be a number, {n} numbers or {n} × 10 numbers, all ≥ 0")
+    return np.ascontiguousarray(g)
+
+
+class SlotineLi(Controller):
+    """The adaptive controller; ``law`` is ``"cstar"`` (the paper's) or ``"classic"``.
+
+    ``lam`` (Λ) and ``kd`` (K_D): one number or one per joint; ``gamma`` (P): see
+    :func:`adaptation_gains`; ``params0``/``params_scale``: see :func:`initial_params`.
+    """
+
+    def __init__(self, model, law="cstar", lam=10.0, kd=50.0, gamma=1.0, params0="true", joints=None, divisor=1,
+                 projection=False, dead_zone=0.0, params_scale=1.0, name="slotine_li"):
+        super().__init__(name, model, joints, divisor)
+        if law not in LAWS:
+            raise ValueError(f"law must be one of {sorted(LAWS)}, got {law!r}")
+        n = model.nq
+        self.law, self.projection, self.dead_zone = law, bool(projection), float(dead_zone)
+        self.lam = np.broadcast_to(np.asarray(lam, float), (n,)).copy()
+        self.kd = np.broadcast_to(np.asarray(kd, float), (n,)).copy()
+        self.gamma = adaptation_gains(gamma, n)
+        self.params0 = initial_params(model, params0, params_scale)
+        self.params_hat = self.params0.copy()
+        self.params_dot = np.zeros((n, 10))
+        self.arrays = model_arrays(model)
+        self.tau, self.s, self.qdr, self.qddr = (np.zeros(n) for _ in range(4))
+        self._work = self._workspace(n)
+        self._scratch = self._workspace(n) + tuple(np.zeros(n) for _ in range(5)) + (np.zeros((n, 10)),)
+        self._t_prev = np.nan
+        self.internals = {"params_hat": self.params_hat.reshape(-1), "s": self.s}
+
+    @staticmethod
+    def _workspace(n):
+        return (np.zeros((n, 4, 3)), np.zeros((n, BODY_SLOTS, 6)), np.zeros((TMP_VECTORS, 6)),
+                np.zeros((PHI_VECTORS, 10)), np.zeros((4, 4)), np.zeros((4, 4)), np.zeros(10))
+
+    @classmethod
+    def from_config(cls, cfg, model):
+        """Options: law, lam, kd, gamma, params0, params_scale, projection, dead_zone."""
+        t, n = cfg.options, model.nq
+        params0 = t.str("params0", "true")
+        if params0 not in PARAMS0:
+            params0 = (t.file.parent / params0)
+            if params0.suffix not in (".npy", ".toml") or not params0.exists():
+                raise t.error("params0", f"one of {', '.join(PARAMS0)} or an existing .npy/.toml file")
+        scale = per_joint(t, "params_scale", n, 1.0)
+        try:
+            gamma = adaptation_gains(t.raw("gamma"), n)
+            p0 = initial_params(model, params0, scale)
+        except (ValueError, TypeError, OSError) as e:
+            raise t.error("gamma" if "gamma" in str(e) else "params0", str(e)) from None
+        c = cls(model, law=t.str("law", "cstar", choices=tuple(LAWS)), lam=per_joint(t, "lam", n),
+                kd=per_joint(t, "kd", n), gamma=gamma, params0=p0, joints=cfg.joints, divisor=cfg.divisor,
+                projection=t.bool("projection", False), dead_zone=t.float("dead_zone", 0.0, min=0.0),
+                name=cfg.name)
+        t.done()
+        return c
+
+    def _call(self, params, work, q, qd, q_d, qd_d, qdd_d, qdr, qddr, s, tau, params_dot):
+        X, body, tmp, phi, _, _, _ = work
+        a = self.arrays
+        slotine_li_kernel(LAWS[self.law], a.joint, a.geom, params, a.gravity, X, body, tmp, phi, q, qd, q_d,
+                          qd_d, qdd_d, self.lam, self.kd, self.gamma, self.dead_zone, qdr, qddr, s, tau, params_dot)
+
+    def compute(self, q, qd, q_des, qd_des, qdd_des):
+        """(τ, dπ̂/dt) for one tick at the current estimates; changes no state (allocates its
+        result: use :meth:`update` in a loop)."""
+        n = self.model.nq
+        vec = [np.ascontiguousarray(x, dtype=float).reshape(n) for x in (q, qd, q_des, qd_des, qdd_des)]
+        *work, qdr, qddr, s, tau, _, params_dot = self._scratch
+        self._call(self.params_hat, work, *vec, qdr, qddr, s, tau, params_dot)
+        return tau.copy(), params_dot.copy()
+
+    def project(self) -> int:
+        """Apply the consistency projection to the current estimates now; returns the number of
+        half-space corrections made."""
+        _, _, _, _, A, V, a = self._work
+        return project_consistent(self.params_hat, self.gamma, A, V, a)
+
+    def reset(self, state=None) -> None:
+        """Restore π̂(0); the next update starts a fresh integration."""
+        self.params_hat[:] = self.params0
+        self.params_dot[:] = 0.0
+        self._t_prev = np.nan
+
+    def update(self, t, state, ref, command):
+        h = t - self._t_prev if self._t_prev == self._t_prev else 0.0  # nan ≠ nan: first update
+        self._t_prev = t
+        X, body, tmp, phi, A, V, a = self._work
+        m = self.arrays
+        slotine_li_update_kernel(LAWS[self.law], h, self.projection, m.joint, m.geom, self.params_hat, m.gravity,
+                                 X, body, tmp, phi, A, V, a, state.position, state.velocity, ref.q, ref.qd, ref.qdd,
+                                 self.lam, self.kd, self.gamma, self.dead_zone, self.qdr, self.qddr, self.s,
+                                 self.tau, self.params_dot)
+        self.emit(command.tau_ff, self.tau)
