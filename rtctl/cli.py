@@ -80,28 +80,25 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+# Most specific first: each family of the error tree, its exit code and how the message starts.
+_EXIT_FOR = (
+    (ConfigError, EXIT_CONFIG, "configuration error: "),
+    (RealtimeError, EXIT_RT, "real-time: "),
+    (HardwareError, EXIT_HARDWARE, "hardware: "),
+    (ControlSocketError, EXIT_SOCKET, ""),
+    (SafetyError, EXIT_FAULT, "safe stop: "),
+    (RtctlError, EXIT_CONFIG, ""),
+)
+
+
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     try:
         return _dispatch(args)
-    except ConfigError as e:
-        print(f"rtctl: configuration error: {e}", file=sys.stderr)
-        return EXIT_CONFIG
-    except RealtimeError as e:
-        print(f"rtctl: real-time: {e}", file=sys.stderr)
-        return EXIT_RT
-    except HardwareError as e:
-        print(f"rtctl: hardware: {e}", file=sys.stderr)
-        return EXIT_HARDWARE
-    except ControlSocketError as e:
-        print(f"rtctl: {e}", file=sys.stderr)
-        return EXIT_SOCKET
-    except SafetyError as e:
-        print(f"rtctl: safe stop: {e}", file=sys.stderr)
-        return EXIT_FAULT
     except RtctlError as e:
-        print(f"rtctl: {e}", file=sys.stderr)
-        return EXIT_CONFIG
+        code, prefix = next((c, p) for cls, c, p in _EXIT_FOR if isinstance(e, cls))
+        print(f"rtctl: {prefix}{e}", file=sys.stderr)
+        return code
     except KeyboardInterrupt:
         return EXIT_OK
 

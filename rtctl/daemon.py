@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import json
 import signal
-import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -54,8 +54,6 @@ def run(args) -> int:
 
 
 def _with_realtime_factor(cfg, factor: float):
-    from dataclasses import replace
-
     from rtctl.errors import ConfigError
 
     if factor < 0 or (factor != 1.0 and cfg.sim is None):
@@ -87,7 +85,7 @@ class Daemon:
             if path:
                 self.recorder = self._open_recorder(Path(path))
             server = ControlServer(self.args.socket or self.cfg.socket_path, self._handle, n_joints=self.model.nq)
-            for report in apply_rt(self.cfg.loop.rt, enforce=self.args.enforce_rt):
+            for report in apply_rt(self._rt_settings(), enforce=self.args.enforce_rt):
                 log.info("rt knob", **report.as_dict())
             self._bring_up()
             self._loop(server)
@@ -102,6 +100,20 @@ class Daemon:
                 server.close()
             self._finish()
         return self.exit_code
+
+    def _rt_settings(self):
+        """The knobs to apply: ``--enforce-rt`` asks for the full set (what is not configured
+        gets a default); a lock-step run never sleeps, so it must not run SCHED_FIFO (it would
+        starve its core) — its priority knob is left alone."""
+        rt = self.cfg.loop.rt
+        if self.args.enforce_rt:
+            rt = replace(rt, priority=rt.priority or 80, mlockall=True, timer_slack_ns=rt.timer_slack_ns or 1,
+                         gc_freeze=True)
+        if self.cfg.loop.realtime_factor == 0 and rt.priority:
+            log.warning("rt knob", knob="sched_fifo", status="off",
+                        detail="lock-step (realtime_factor = 0) never sleeps: SCHED_FIFO would starve its core")
+            rt = replace(rt, priority=0)
+        return rt
 
     def _bring_up(self) -> None:
         for dev in self.rt.devices:
