@@ -38,7 +38,7 @@ class LoopConfig:
     overrun_limit: int = 50  # consecutive overruns → controlled safe stop
     spin_us: float = 200.0  # sleep until deadline − spin, then spin
     realtime_factor: float = 1.0  # 0 = as fast as possible (simulated devices only)
-    rt: RtSettings = field(default_factory=RtSettings)
+    rt: RtSettings = field(default_factory=lambda: RtSettings(gc_freeze=True))  # DESIGN §2: GC frozen while running
 
     @property
     def period(self) -> float:
@@ -151,7 +151,7 @@ def _loop(t: Table | None) -> LoopConfig:
     if t is None:
         return LoopConfig()
     rt_t = t.table("rt", None)
-    rt = RtSettings()
+    rt = RtSettings(gc_freeze=True)
     if rt_t is not None:
         cpus = rt_t.raw("cpus", [])
         if not isinstance(cpus, list) or not all(isinstance(c, int) and c >= 0 for c in cpus):

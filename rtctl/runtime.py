@@ -47,6 +47,11 @@ class Runtime:
     def model(self):
         return self.cfg.model
 
+    @property
+    def direct(self) -> bool:
+        """True when the robot's state and command are the (single) device's own arrays."""
+        return len(self.devices) == 1 and self.state is self.devices[0].state
+
     def bus_budget(self) -> list[str]:
         """One line per bus: its load at the loop rate (devices that are on a bus say so)."""
         lines = []
@@ -74,4 +79,9 @@ def build(cfg: Config) -> Runtime:
             raise ConfigError(cfg.file, f"controllers[{i}].type", f"one of {', '.join(sorted(CONTROLLERS))}, got {c.type!r}")
         controllers.append(controller_class(c.type).from_config(c, model))
     n = model.nq
-    return Runtime(cfg, devices, device_joints, controllers, JointState(n), JointCommand(n), Reference(n), context)
+    if len(devices) == 1 and np.array_equal(device_joints[0], np.arange(n)):
+        # one device serves every joint in order: its arrays are the robot's (no gather/scatter)
+        state, command = devices[0].state, devices[0].command
+    else:
+        state, command = JointState(n), JointCommand(n)
+    return Runtime(cfg, devices, device_joints, controllers, state, command, Reference(n), context)

@@ -23,6 +23,7 @@ class Tick:
         self.safety = safety
         self.recorder = recorder
         self.trajectory = None  # set by the daemon; replaced by `move`
+        self.direct = runtime.direct  # one device, all joints: no gather/scatter
         n = runtime.model.nq
         self.statuses = np.zeros(len(runtime.devices), dtype=np.int64)
         self.write_statuses = np.zeros(len(runtime.devices), dtype=np.int64)  # carried to the next check
@@ -41,6 +42,8 @@ class Tick:
         for i, dev in enumerate(rt.devices):
             self.statuses[i] = max(dev.read(t), self.write_statuses[i])  # a failed write counts too
             self.write_statuses[i] = Status.OK
+            if self.direct:
+                break
             idx, s = rt.device_joints[i], dev.state
             np.put(state.position, idx, s.position)
             np.put(state.velocity, idx, s.velocity)
@@ -66,6 +69,9 @@ class Tick:
         ticker.mark(SAFETY)
 
         for i, dev in enumerate(rt.devices):
+            if self.direct:
+                self.write_statuses[i] = dev.write(t)
+                break
             idx, c = rt.device_joints[i], dev.command
             c.mode = command.mode
             np.take(command.tau_ff, idx, out=c.tau_ff)
