@@ -38,7 +38,7 @@ from rtctl.control.base import Controller
 from rtctl.control.consistency import project_consistent
 from rtctl.control.gains import per_joint
 from rtctl.control.slotine_li_kernels import BODY_SLOTS, CLASSIC, CSTAR, PHI_VECTORS, TMP_VECTORS, \
-    slotine_li_kernel, slotine_li_update_kernel
+    slotine_li_update_kernel
 from rtctl.model.dynamics import model_arrays
 
 LAWS = {"cstar": CSTAR, "classic": CLASSIC}
@@ -82,6 +82,21 @@ def adaptation_gains(gamma, n: int) -> np.ndarray:
     return np.ascontiguousarray(g)
 
 
+GAMMA_CLASSES = {"mass": slice(0, 1), "first_moment": slice(1, 4), "inertia": slice(4, 10)}
+
+
+def _gamma_option(t, n: int):
+    """``gamma``: a number, n numbers, n × 10 numbers, or a table by parameter class
+    ``{mass = .., first_moment = .., inertia = ..}`` (each a number or n numbers)."""
+    if not isinstance(t.raw("gamma"), dict):
+        return t.raw("gamma")
+    g, classes = np.zeros((n, 10)), t.table("gamma")
+    for key, cols in GAMMA_CLASSES.items():
+        g[:, cols] = per_joint(classes, key, n)[:, None]
+    classes.done()
+    return g
+
+
 class SlotineLi(Controller):
     """The adaptive controller; ``law`` is ``"cstar"`` (the paper's) or ``"classic"``.
 
@@ -90,7 +105,8 @@ class SlotineLi(Controller):
     """
 
     def __init__(self, model, law="cstar", lam=10.0, kd=50.0, gamma=1.0, params0="true", joints=None, divisor=1,
-                 projection=False, dead_zone=0.0, params_scale=1.0, name="slotine_li"):
+                 projection=False, dead_zone=0.0, params_scale=1.0, motor_model=False, coulomb_velocity=0.01,
+                 name="slotine_li"):
         super().__init__(name, model, joints, divisor)
         if law not in LAWS:
             raise ValueError(f"law must be one of {sorted(LAWS)}, got {law!r}")
@@ -103,6 +119,10 @@ class SlotineLi(Controller):
         self.params_hat = self.params0.copy()
         self.params_dot = np.zeros((n, 10))
         self.arrays = model_arrays(model)
+        motors = model.motors if motor_model else None
+        self.motor_model = motors is not None
+        self.motor = np.zeros((3, n)) if motors is None else np.array([motors.armature, motors.viscous, motors.coulomb])
+        self.coulomb_velocity = float(coulomb_velocity)
         self.tau, self.s, self.qdr, self.qddr = (np.zeros(n) for _ in range(4))
         self._work = self._workspace(n)
         self._scratch = self._workspace(n) + tuple(np.zeros(n) for _ in range(5)) + (np.zeros((n, 10)),)
@@ -116,7 +136,7 @@ class SlotineLi(Controller):
 
     @classmethod
     def from_config(cls, cfg, model):
-        """Options: law, lam, kd, gamma, params0, params_scale, projection, dead_zone."""
+        """Options: law, lam, kd, gamma, params0, params_scale, projection, dead_zone, motor_model."""
         t, n = cfg.options, model.nq
         params0 = t.str("params0", "true")
         if params0 not in PARAMS0:
@@ -125,31 +145,33 @@ class SlotineLi(Controller):
                 raise t.error("params0", f"one of {', '.join(PARAMS0)} or an existing .npy/.toml file")
         scale = per_joint(t, "params_scale", n, 1.0)
         try:
-            gamma = adaptation_gains(t.raw("gamma"), n)
+            gamma = adaptation_gains(_gamma_option(t, n), n)
             p0 = initial_params(model, params0, scale)
         except (ValueError, TypeError, OSError) as e:
             raise t.error("gamma" if "gamma" in str(e) else "params0", str(e)) from None
         c = cls(model, law=t.str("law", "cstar", choices=tuple(LAWS)), lam=per_joint(t, "lam", n),
                 kd=per_joint(t, "kd", n), gamma=gamma, params0=p0, joints=cfg.joints, divisor=cfg.divisor,
                 projection=t.bool("projection", False), dead_zone=t.float("dead_zone", 0.0, min=0.0),
-                name=cfg.name)
+                motor_model=t.bool("motor_model", False), name=cfg.name)
         t.done()
         return c
-
-    def _call(self, params, work, q, qd, q_d, qd_d, qdd_d, qdr, qddr, s, tau, params_dot):
-        X, body, tmp, phi, _, _, _ = work
-        a = self.arrays
-        slotine_li_kernel(LAWS[self.law], a.joint, a.geom, params, a.gravity, X, body, tmp, phi, q, qd, q_d,
-                          qd_d, qdd_d, self.lam, self.kd, self.gamma, self.dead_zone, qdr, qddr, s, tau, params_dot)
 
     def compute(self, q, qd, q_des, qd_des, qdd_des):
         """(τ, dπ̂/dt) for one tick at the current estimates; changes no state (allocates its
         result: use :meth:`update` in a loop)."""
         n = self.model.nq
         vec = [np.ascontiguousarray(x, dtype=float).reshape(n) for x in (q, qd, q_des, qd_des, qdd_des)]
-        *work, qdr, qddr, s, tau, _, params_dot = self._scratch
-        self._call(self.params_hat, work, *vec, qdr, qddr, s, tau, params_dot)
+        X, body, tmp, phi, A, V, a, qdr, qddr, s, tau, _, params_dot = self._scratch
+        self._tick(0.0, False, (X, body, tmp, phi, A, V, a), *vec, qdr, qddr, s, tau, params_dot)
         return tau.copy(), params_dot.copy()
+
+    def _tick(self, h, project, work, q, qd, q_d, qd_d, qdd_d, qdr, qddr, s, tau, params_dot):
+        X, body, tmp, phi, A, V, a = work
+        m = self.arrays
+        slotine_li_update_kernel(LAWS[self.law], h, project, self.motor_model, self.motor, self.coulomb_velocity,
+                                 m.joint, m.geom, self.params_hat, m.gravity, X, body, tmp, phi, A, V, a, q, qd, q_d,
+                                 qd_d, qdd_d, self.lam, self.kd, self.gamma, self.dead_zone, qdr, qddr, s, tau,
+                                 params_dot)
 
     def project(self) -> int:
         """Apply the consistency projection to the current estimates now; returns the number of
@@ -166,10 +188,6 @@ class SlotineLi(Controller):
     def update(self, t, state, ref, command):
         h = t - self._t_prev if self._t_prev == self._t_prev else 0.0  # nan ≠ nan: first update
         self._t_prev = t
-        X, body, tmp, phi, A, V, a = self._work
-        m = self.arrays
-        slotine_li_update_kernel(LAWS[self.law], h, self.projection, m.joint, m.geom, self.params_hat, m.gravity,
-                                 X, body, tmp, phi, A, V, a, state.position, state.velocity, ref.q, ref.qd, ref.qdd,
-                                 self.lam, self.kd, self.gamma, self.dead_zone, self.qdr, self.qddr, self.s,
-                                 self.tau, self.params_dot)
+        self._tick(h, self.projection, self._work, state.position, state.velocity, ref.q, ref.qd, ref.qdd, self.qdr,
+                   self.qddr, self.s, self.tau, self.params_dot)
         self.emit(command.tau_ff, self.tau)

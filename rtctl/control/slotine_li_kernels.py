@@ -26,6 +26,8 @@ and optionally kept physically consistent by :func:`project_consistent`.
 """
 from __future__ import annotations
 
+import math
+
 from numba import njit
 
 from rtctl.control.consistency import project_consistent
@@ -174,15 +176,27 @@ def euler_step(params, params_dot, h):
             params[i, k] += h * params_dot[i, k]
 
 
+@njit(cache=True, inline="always")
+def motor_feedforward_add(qd, qddr, motor, coulomb_velocity, tau):
+    """τ += armature q̈_r + viscous q̇ + coulomb tanh(q̇ / v_c): the known drive train, rows of
+    ``motor`` (3, n). Armature adds a constant diagonal to H (Ḣ unchanged, so Ḣ − 2C stays
+    skew) and friction is cancelled, so the adaptive law's Lyapunov argument is unchanged."""
+    for i in range(tau.shape[0]):
+        tau[i] += motor[0, i] * qddr[i] + motor[1, i] * qd[i] + motor[2, i] * math.tanh(qd[i] / coulomb_velocity)
+
+
 @njit(cache=True)
-def slotine_li_update_kernel(law, h, project, joint, geom, params, gravity, X, body, tmp, phi, A, V, a, q, qd, q_d,
-                             qd_d, qdd_d, lam, kd, gamma, dead_zone, qdr, qddr, s, tau, params_dot):
+def slotine_li_update_kernel(law, h, project, use_motor, motor, coulomb_velocity, joint, geom, params, gravity, X,
+                             body, tmp, phi, A, V, a, q, qd, q_d, qd_d, qdd_d, lam, kd, gamma, dead_zone, qdr, qddr,
+                             s, tau, params_dot):
     """The controller's tick in one call: π̂ += h · (the previous tick's dπ̂/dt), then the
     optional consistency projection, then :func:`slotine_li_kernel` with the new π̂ (which
-    overwrites ``params_dot`` for the next tick)."""
+    overwrites ``params_dot`` for the next tick), then the optional drive-train feed-forward."""
     if h > 0.0:
         euler_step(params, params_dot, h)
         if project:
             project_consistent(params, gamma, A, V, a)
     slotine_li_kernel(law, joint, geom, params, gravity, X, body, tmp, phi, q, qd, q_d, qd_d, qdd_d, lam, kd,
                       gamma, dead_zone, qdr, qddr, s, tau, params_dot)
+    if use_motor:
+        motor_feedforward_add(qd, qddr, motor, coulomb_velocity, tau)
