@@ -17,6 +17,7 @@ Options (the run configuration's ``[sim]`` table)::
     encoder_counts = 0           # counts per revolution for position quantisation (0 = ideal)
     velocity_noise = 0.0         # std of white noise on measured velocity (rad/s)
     seed = 1
+    transport = "direct"         # "can": through the MIT CAN driver and emulated drives (hil_sim.can_embedded)
 """
 from __future__ import annotations
 
@@ -81,7 +82,13 @@ class SimJointGroup(JointGroup):
 
     @classmethod
     def from_config(cls, device, context) -> "SimJointGroup":
-        """``device``: rtctl.config.DeviceConfig; ``context``: rtctl.daemon.DeviceContext."""
+        """``device``: rtctl.config.DeviceConfig; ``context``: rtctl.daemon.DeviceContext.
+        ``[sim] transport = "can"`` plays the device through the CAN driver and emulated drives
+        (:mod:`hil_sim.can_embedded`) instead."""
+        if context.sim.str("transport", "direct", choices=("direct", "can")) == "can":
+            from hil_sim.can_embedded import SimCanJointGroup
+
+            return SimCanJointGroup.from_config(device, context)
         hub = context.shared.get("sim_hub")
         if hub is None:
             hub = SimPlantHub.from_options(context.sim, context.model, context.period, context.base_dir)

@@ -1,0 +1,149 @@
+"""The CAN bus of a joint device: python-can options from the run configuration, and the
+bus-load budget of every bus of a run (spec/can_joints.md §2–3).
+
+::
+
+    [devices.bus]                 # can.Bus(**bus): the interface and any keyword it takes
+    interface = "socketcand"
+    host = "127.0.0.1"
+    port = "${HIL_SIM_PORT}"      # ${VAR} / ${VAR:-default}: from the environment at start-up
+    channel = "can0"
+    bitrate = 1000000             # also the budget's bitrate (default 1 Mbit/s, said so)
+    tcp_tune = true
+
+A string value may name environment variables; after expansion, a value that is an integer
+literal becomes an integer (ports, bitrates). This is how a run configuration reaches a
+simulator whose port or pty is only known when it starts: ``hil-sim`` prints the variables
+to set (its ``env`` field). Devices whose bus options name the same interface, channel, host
+and port share one bus: the budget counts their joints together.
+"""
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass, field
+
+import can
+
+from rtctl.busload import DEFAULT_LIMIT, BusLoad, bus_load, check_bus_load, format_budget
+from rtctl.tomltable import Table
+
+ENV_TEMPLATE = re.compile(r"\$\{([A-Za-z_][A-Za-z0-9_]*)(?::-([^}]*))?\}")
+DEFAULT_BITRATE = 1_000_000
+BUDGET_KEY = "can_bus_budget"  # in DeviceContext.shared
+
+
+def expand_env(t: Table, key: str, value: str, environ=os.environ):
+    """``value`` with ``${VAR}`` / ``${VAR:-default}`` replaced from ``environ``; an integer
+    literal obtained by expansion becomes an int. ConfigError for an unset variable without default."""
+
+    def sub(m):
+        name, default = m.group(1), m.group(2)
+        if name in environ:
+            return environ[name]
+        if default is not None:
+            return default
+        raise t.error(key, f"the environment variable {name} to be set (e.g. from hil-sim's JSON line), "
+                           f"or a default: ${{{name}:-…}}")
+
+    expanded = ENV_TEMPLATE.sub(sub, value)
+    if expanded != value and re.fullmatch(r"[+-]?\d+", expanded.strip()):
+        return int(expanded)
+    return expanded
+
+
+@dataclass(frozen=True)
+class BusOptions:
+    kwargs: dict  # for can.Bus(**kwargs)
+    bitrate: int  # for the budget
+    bitrate_assumed: bool
+    identity: tuple  # (interface, channel, host, port): equal for devices on one bus
+    label: str
+
+    @property
+    def interface(self) -> str:
+        return self.kwargs["interface"]
+
+
+def read_bus_options(t: Table) -> BusOptions:
+    """The ``bus`` sub-table of the device table ``t``, validated (nothing is opened)."""
+    bt = t.table("bus")
+    kwargs = {}
+    for key in list(bt.data):
+        value = bt.raw(key)
+        kwargs[key] = expand_env(bt, key, value) if isinstance(value, str) else value
+    interface = kwargs.get("interface")
+    if interface not in can.interfaces.VALID_INTERFACES:
+        raise bt.error("interface", f"a python-can interface ({', '.join(sorted(can.interfaces.VALID_INTERFACES))}), "
+                                    f"got {interface!r}")
+    channel = kwargs.get("channel")
+    if not isinstance(channel, (str, int)) or channel == "":
+        raise bt.error("channel", f"the channel to open (a name, a tty, or an index), got {channel!r}")
+    host, port = kwargs.get("host"), kwargs.get("port")
+    if interface == "socketcand":
+        if not isinstance(host, str) or not host:
+            raise bt.error("host", f"the socketcand server's host, got {host!r}")
+        if not isinstance(port, int) or isinstance(port, bool) or not 0 < port < 65536:
+            raise bt.error("port", f"a TCP port 1…65535, got {port!r}")
+    bitrate = kwargs.get("bitrate")
+    if bitrate is not None and (not isinstance(bitrate, int) or isinstance(bitrate, bool) or bitrate <= 0):
+        raise bt.error("bitrate", f"a positive integer (bit/s), got {bitrate!r}")
+    label = f"{channel}" if interface != "socketcand" else f"{channel}@{host}:{port}"
+    return BusOptions(kwargs, bitrate or DEFAULT_BITRATE, bitrate is None,
+                      (interface, str(channel), host, port), label)
+
+
+@dataclass
+class _Bus:
+    label: str
+    protocol: str
+    bitrate: int
+    bitrate_assumed: bool
+    joints: int = 0
+    devices: list = field(default_factory=list)
+
+    def load(self, rate_hz: float) -> BusLoad:
+        return bus_load(self.label, self.protocol, self.joints, rate_hz, self.bitrate)
+
+
+class BusBudget:
+    """Every CAN bus of one run and the joints on it (one instance in ``DeviceContext.shared``).
+    :meth:`add` refuses a bus loaded beyond its limit at the loop rate (BusLoadError, exit 2)."""
+
+    def __init__(self):
+        self.buses: dict[tuple, _Bus] = {}
+        self.limits: dict[tuple, float] = {}
+
+    @classmethod
+    def of(cls, shared: dict) -> tuple["BusBudget", bool]:
+        """The run's budget, and whether the caller created it (and so reports it)."""
+        if BUDGET_KEY in shared:
+            return shared[BUDGET_KEY], False
+        shared[BUDGET_KEY] = budget = cls()
+        return budget, True
+
+    def add(self, t: Table, device: str, bus: BusOptions, protocol: str, joints: int, rate_hz: float,
+            limit: float = DEFAULT_LIMIT) -> BusLoad:
+        entry = self.buses.get(bus.identity)
+        if entry is None:
+            entry = self.buses[bus.identity] = _Bus(bus.label, protocol, bus.bitrate, bus.bitrate_assumed)
+        elif entry.protocol != protocol or entry.bitrate != bus.bitrate:
+            raise t.error("protocol", f"the protocol and bitrate of the other devices on bus {bus.label} "
+                                      f"({entry.protocol}, {entry.bitrate} bit/s), got {protocol}, {bus.bitrate} bit/s")
+        entry.joints += joints
+        entry.devices.append(device)
+        self.limits[bus.identity] = min(limit, self.limits.get(bus.identity, limit))
+        load = entry.load(rate_hz)
+        return check_bus_load(load, t.file, f"{t.path}.bus", self.limits[bus.identity])
+
+    def lines(self, rate_hz: float) -> list[str]:
+        """The table ``rtctl check`` prints, one row per bus (a note when a bitrate is assumed)."""
+        loads = [b.load(rate_hz) for b in self.buses.values()]
+        limit = min(self.limits.values(), default=DEFAULT_LIMIT)
+        lines = format_budget(loads, limit).split("\n")
+        for b in self.buses.values():
+            if b.bitrate_assumed:
+                lines.append(f"  {b.label}: no bitrate in its bus options, {b.bitrate / 1e3:g} kbit/s assumed")
+            if len(b.devices) > 1:
+                lines.append(f"  {b.label}: shared by devices {', '.join(b.devices)}")
+        return lines

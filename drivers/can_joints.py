@@ -1,0 +1,385 @@
+"""MIT-protocol CAN joint drives as one JointGroup per bus (driver ``mit_can``; spec/can_joints.md).
+
+One device is one CAN bus; a robot on several buses is several devices (the budget still adds
+up devices that name the same bus). Options (the ``[[devices]]`` table; drive layout in
+:mod:`drivers.protocols.mit_layout`, bus in :mod:`drivers.can_bus`)::
+
+    protocol = "mit"          # for the bus-load budget: "mit" (6-byte replies), "mit8" (default when a reply is 8 bytes)
+    bus_load_limit = 0.8      # refuse the configuration above it (exit 2)
+    reply_deadline = 0.6      # fraction of the period write() waits for the replies
+    stale_limit = 3           # ticks in a row without a joint's reply → Status.ERROR
+    drive_timeout = 0.02      # s: the drives' command watchdog; a longer gap in our commands → DEACTIVATE
+    exchange_timeout = 0.5    # s for the answers to enter/exit motor mode and set-zero
+    reconnect_timeout = 2.0   # s of reopening after a bus error; then the device stays ERROR
+    reconnect_interval = 0.05 # s between attempts
+    set_zero = false          # set every drive's zero at configure (motor off)
+
+Lifecycle: ``configure`` opens the bus and sends *exit motor mode* to every drive — answered
+with its state, so states are readable and nothing is enabled (a drive left on by a crashed
+run is turned off). ``activate`` sends *enter motor mode* and requires every answer.
+``deactivate`` sends *exit motor mode*, always (reopening the bus once if it was lost).
+
+Per tick: the drives answer only commands, so ``write()`` sends all commands and then collects
+the replies until every drive answered or ``reply_deadline × period`` passed, blocking in
+``recv`` (not spinning); ``read()`` of the next tick publishes them and does no I/O. The state
+the controllers see is the drives' measurement taken when tick k's commands arrived — one
+period old, inherent to a protocol that replies to commands, and the same whichever call
+collects; collecting in ``write()`` bounds the wait inside the tick, notices a silent drive in
+the tick it fell silent and lets the loop sleep undisturbed. A reply after the deadline is
+picked up by the next collection (the newest reply wins). Torque mode sends kp = kd = 0, t = τ.
+
+Hot path: the command messages and all arrays are preallocated; the codec packs into the
+messages' own ``data``. python-can still allocates a Message per received frame, and its
+socketcand and slcan ``send`` format a string per frame (unavoidable without replacing them).
+
+Faults: a missing reply marks that joint not fresh; ``stale_limit`` in a row → ERROR. Malformed
+replies, frames for other ids and error frames are counted and ignored. A bus error → ERROR,
+the bus is closed and reopened every ``reconnect_interval`` for ``reconnect_timeout`` s. When
+our commands paused longer than ``drive_timeout`` (a lost link, a frozen loop), the drives'
+own watchdogs have turned their motors off: the device reports DEACTIVATE (its own stop) until
+it is activated again.
+"""
+from __future__ import annotations
+
+import socket
+import time
+
+import can
+import numpy as np
+import structlog
+
+from drivers.can_bus import BusBudget, read_bus_options
+from drivers.protocols import mit
+from drivers.protocols.mit import REPLY_EFFORT, REPLY_ERROR, REPLY_POSITION, REPLY_VELOCITY, Special
+from drivers.protocols.mit_layout import read_master_id, read_mit_joints, reply_keys
+from rtctl.busload import DEFAULT_LIMIT, PROTOCOLS
+from rtctl.errors import HardwareError
+from rtctl.hal import JointGroup, Lifecycle, Status
+
+log = structlog.get_logger("rtctl.can")
+
+
+class MitCanJointGroup(JointGroup):
+    """The MIT drives of one CAN bus."""
+
+    def __init__(self, name: str, joints, bus, *, master_id: int = mit.DEFAULT_MASTER_ID, period: float = 0.001,
+                 reply_deadline: float = 0.6, stale_limit: int = 3, drive_timeout: float = 0.02,
+                 exchange_timeout: float = 0.5, reconnect_timeout: float = 2.0, reconnect_interval: float = 0.05,
+                 set_zero: bool = False):
+        super().__init__(name, [j.name for j in joints])
+        n = len(joints)
+        self.joints, self.bus_options, self.master_id = tuple(joints), bus, master_id
+        self.reply_timeout = reply_deadline * period
+        self.stale_limit, self.drive_timeout = stale_limit, drive_timeout
+        self.exchange_timeout, self.set_zero_at_configure = exchange_timeout, set_zero
+        self.reconnect_timeout, self.reconnect_interval = reconnect_timeout, reconnect_interval
+        self.bus = None
+        self.budget: BusBudget | None = None  # set by from_config on the run's first CAN device
+        self._models = [j.model for j in joints]
+        self._row_of_key = [-1] * 256  # reply byte 0 → row
+        for row, j in enumerate(joints):
+            for key in reply_keys(j):
+                self._row_of_key[key] = row
+        self._commands = [can.Message(arbitration_id=j.drive_id, data=bytearray(8), is_extended_id=False)
+                          for j in joints]
+        self._specials = {kind: [can.Message(arbitration_id=j.drive_id, data=bytearray(mit.special_frame(kind)),
+                                             is_extended_id=False) for j in joints] for kind in Special}
+        self._dir = np.array([j.direction for j in joints])
+        self._offset = np.array([j.offset for j in joints])
+        self._effort_scale = self._dir * np.array([j.model.torque_constant for j in joints])
+        self._replies = np.zeros((n, mit.REPLY_COLUMNS))
+        self._got = np.zeros(n, dtype=bool)  # a reply since the last read
+        self._cycle = np.zeros(n, dtype=bool)  # a reply in the current collection
+        self._stale = np.zeros(n, dtype=np.int64)
+        self._zeros_i = np.zeros(n, dtype=np.int64)
+        self._tmp = np.zeros(n)
+        self._p, self._v, self._t, self._zero = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
+        self._stamp = 0.0
+        self._last_sent = -np.inf  # clock time of the last command (or enter motor mode) sent
+        self._drives_off: str | None = None  # why the drives must be assumed off (their watchdog)
+        self._lost_at: float | None = None  # monotonic time the bus was lost
+        self._next_attempt = 0.0
+        self.counters = {"cycles": 0, "missing_replies": 0, "malformed_replies": 0, "foreign_frames": 0,
+                         "error_frames": 0, "bus_errors": 0, "reconnects": 0}
+        self.events: list[dict] = []  # rare: bus lost / back, drives assumed off, stale fault
+
+    # -- configuration -------------------------------------------------------------------
+    @classmethod
+    def from_config(cls, device, context) -> "MitCanJointGroup":
+        """Validate the options and the bus-load budget; opens nothing."""
+        t = device.options
+        names = [context.model.joint_names[j] for j in device.joints]
+        joints = read_mit_joints(t, names)
+        bus = read_bus_options(t)
+        kw = cls._read_timing(t, context.period)
+        budget = cls._check_budget(t, device.name, bus, joints, context)
+        t.done()
+        dev = cls(device.name, joints, bus, master_id=read_master_id(t), period=context.period, **kw)
+        dev.budget = budget
+        return dev
+
+    @staticmethod
+    def _read_timing(t, period) -> dict:
+        return dict(
+            reply_deadline=t.float("reply_deadline", 0.6, positive=True, max=0.95),
+            stale_limit=t.int("stale_limit", 3, min=1),
+            drive_timeout=t.float("drive_timeout", 0.02, positive=True),
+            exchange_timeout=t.float("exchange_timeout", 0.5, positive=True),
+            reconnect_timeout=t.float("reconnect_timeout", 2.0, min=0.0),
+            reconnect_interval=t.float("reconnect_interval", 0.05, positive=True),
+            set_zero=t.bool("set_zero", False),
+        )
+
+    @staticmethod
+    def _check_budget(t, name, bus, joints, context) -> BusBudget | None:
+        """Add this device's joints to the run's budget (BusLoadError above the limit); the
+        budget if this device is the run's first CAN device (it prints the table), else None."""
+        wide = any(j.model.reply_length == 8 for j in joints)
+        protocol = t.str("protocol", "mit8" if wide else "mit", choices=tuple(p for p in PROTOCOLS if p.startswith("mit")))
+        if wide and protocol == "mit":
+            raise t.error("protocol", "\"mit8\": these drives reply with 8 bytes")
+        limit = t.float("bus_load_limit", DEFAULT_LIMIT, positive=True, max=1.0)
+        budget, first = BusBudget.of(context.shared)
+        budget.add(t, name, bus, protocol, len(joints), 1.0 / context.period, limit)
+        return budget if first else None
+
+    def bus_budget(self, rate_hz: float) -> list[str]:
+        """The CAN bus-load table for ``rtctl check`` (printed once, by the run's first CAN device)."""
+        return [] if self.budget is None else self.budget.lines(rate_hz)
+
+    # -- lifecycle -----------------------------------------------------------------------
+    def _on_configure(self) -> None:
+        self._open()
+        try:
+            self._exchange(Special.EXIT_MOTOR_MODE, "exit motor mode")
+            if self.set_zero_at_configure:
+                self._exchange(Special.SET_ZERO, "set zero")
+        except Exception:
+            self._close_bus()
+            raise
+
+    def _on_activate(self) -> None:
+        self._stale[:] = 0
+        self._drives_off, self._lost_at = None, None
+        if self.bus is None:
+            self._open()
+        try:
+            self._exchange(Special.ENTER_MOTOR_MODE, "enter motor mode")
+        except Exception:
+            self._send_special(Special.EXIT_MOTOR_MODE)  # leave none of them enabled
+            raise
+        self._last_sent = self._clock()
+
+    def _on_deactivate(self) -> None:
+        if self.bus is None:
+            self._open()  # one attempt: the drives must hear exit motor mode if the link allows
+        self._exchange(Special.EXIT_MOTOR_MODE, "exit motor mode")
+
+    def _on_close(self) -> None:
+        self._close_bus()
+
+    def set_zero(self) -> None:
+        """Make every drive's present position its zero (FE). Refused while active: the
+        set-point would jump under a live motor."""
+        if self.lifecycle is not Lifecycle.INACTIVE:
+            raise HardwareError(f"{self.name}: set_zero needs the device configured and not active "
+                                f"(it is {self.lifecycle.value})")
+        self._exchange(Special.SET_ZERO, "set zero")
+
+    # -- per tick ------------------------------------------------------------------------
+    def _read(self, t: float) -> Status:
+        got, s, tmp, stale = self._got, self.state, self._tmp, self._stale
+        np.multiply(self._replies[:, REPLY_POSITION], self._dir, out=tmp)
+        tmp += self._offset
+        np.copyto(s.position, tmp, where=got)
+        np.multiply(self._replies[:, REPLY_VELOCITY], self._dir, out=tmp)
+        np.copyto(s.velocity, tmp, where=got)
+        np.multiply(self._replies[:, REPLY_EFFORT], self._effort_scale, out=tmp)
+        np.copyto(s.effort, tmp, where=got)
+        np.copyto(s.fault, self._replies[:, REPLY_ERROR], where=got, casting="unsafe")
+        np.copyto(s.fresh, got)
+        stale += 1
+        np.copyto(stale, self._zeros_i, where=got)
+        s.stamp = self._stamp
+        got.fill(False)
+        if self.bus is None:
+            return Status.ERROR
+        if self._drives_off is not None:
+            return Status.DEACTIVATE
+        if stale.max() >= self.stale_limit:
+            self._event_once("stale", f"no reply from drive(s) {self._stale_ids()} for {self.stale_limit} ticks")
+            return Status.ERROR
+        if s.fault.any():
+            self._event_once("drive_error", f"drive error codes {dict(zip(self.joint_names, s.fault.tolist()))}")
+            return Status.ERROR
+        return Status.OK
+
+    def _write(self, t: float) -> Status:
+        if self.bus is None and not self._reconnect():
+            return Status.ERROR
+        now = self._clock()
+        if now - self._last_sent > self.drive_timeout and self._drives_off is None:
+            self._drives_off = (f"no command for {1e3 * (now - self._last_sent):.0f} ms, longer than the drives' "
+                                f"{1e3 * self.drive_timeout:g} ms watchdog: their motors are off")
+            self._event("drives_off", self._drives_off)
+        c, p, v, tau = self.command, self._p, self._v, self._t
+        if c.mode:  # impedance: the drive closes kp (p − q) + kd (v − q̇) + t
+            np.subtract(c.q_des, self._offset, out=p)
+            p *= self._dir
+            np.multiply(c.qd_des, self._dir, out=v)
+            kp, kd = c.kp, c.kd
+        else:  # torque: zero gains, the torque as feed-forward
+            p.fill(0.0)
+            v.fill(0.0)
+            kp = kd = self._zero
+        np.multiply(c.tau_ff, self._dir, out=tau)
+        models, messages = self._models, self._commands
+        for i in range(len(messages)):
+            mit.pack_command_into(messages[i].data, models[i], p[i], v[i], kp[i], kd[i], tau[i])
+        try:
+            bus = self.bus
+            for m in messages:
+                bus.send(m)
+            self._last_sent = now
+            self._after_send()
+            missing = self._collect(self.reply_timeout)
+        except Exception as e:
+            return self._lost(e)
+        self.counters["cycles"] += 1
+        self.counters["missing_replies"] += missing
+        self._stamp = t
+        return Status.DEACTIVATE if self._drives_off is not None else Status.OK
+
+    # -- frames --------------------------------------------------------------------------
+    def _collect(self, timeout: float) -> int:
+        """Receive until every drive answered or ``timeout`` s passed; returns how many did not."""
+        bus, cycle = self.bus, self._cycle
+        cycle.fill(False)
+        pending = len(cycle)
+        end = time.monotonic() + timeout
+        while pending:
+            remaining = end - time.monotonic()
+            msg = bus.recv(remaining if remaining > 0.0 else 0.0)
+            if msg is None:
+                if remaining <= 0.0:
+                    break
+                continue  # (slcan: a transmit acknowledgement reads as None)
+            row = self._take(msg)
+            if row >= 0 and not cycle[row]:
+                cycle[row] = True
+                pending -= 1
+        return pending
+
+    def _take(self, msg) -> int:
+        """Decode one received frame into the reply table; its row, or −1 when ignored."""
+        data = msg.data
+        if msg.is_error_frame:
+            self.counters["error_frames"] += 1
+            return -1
+        if msg.arbitration_id != self.master_id or msg.is_extended_id or msg.is_remote_frame or not data:
+            self.counters["foreign_frames"] += 1  # other ids (e.g. another master's commands on a shared bus)
+            return -1
+        row = self._row_of_key[data[0]]
+        if row < 0 or len(data) != self._models[row].reply_length:
+            self.counters["malformed_replies"] += 1
+            return -1
+        mit.unpack_reply_into(data, self._models[row], self._replies, row)
+        self._got[row] = True
+        return row
+
+    def _send_special(self, kind: Special) -> None:
+        try:
+            for m in self._specials[kind]:
+                self.bus.send(m)
+            self._after_send()
+        except Exception as e:
+            self.last_error = f"{kind.name.lower()}: {type(e).__name__}: {e}"
+
+    def _exchange(self, kind: Special, what: str) -> None:
+        """Send ``kind`` to every drive and require every answer (HardwareError naming the silent ones)."""
+        if self.bus is None:
+            raise HardwareError(f"{self.name}: {what}: the bus is not open")
+        try:
+            for m in self._specials[kind]:
+                self.bus.send(m)
+            self._after_send()
+            self._collect(self.exchange_timeout)
+        except Exception as e:
+            self._close_bus()
+            raise HardwareError(f"{self.name}: {what}: bus error: {type(e).__name__}: {e}") from e
+        self._stamp = self._clock()
+        silent = [j.drive_id for j, ok in zip(self.joints, self._cycle) if not ok]
+        if silent:
+            raise HardwareError(
+                f"{self.name}: drive(s) {', '.join(f'{i:#x}' for i in silent)} did not answer {what} within "
+                f"{self.exchange_timeout:g} s on {self.bus_options.label} (power, ids, bitrate, termination?)")
+
+    # -- the link ------------------------------------------------------------------------
+    def _open(self) -> None:
+        kw = self.bus_options.kwargs
+        try:
+            if kw["interface"] == "socketcand":
+                # python-can retries a refused connection for 10 s in a busy loop: look first
+                socket.create_connection((kw["host"], kw["port"]), timeout=0.2).close()
+            self.bus = can.Bus(**kw)
+        except Exception as e:
+            self.bus = None
+            raise HardwareError(f"{self.name}: cannot open CAN bus {self.bus_options.label} "
+                                f"({kw['interface']}): {type(e).__name__}: {e}") from e
+
+    def _close_bus(self) -> None:
+        bus, self.bus = self.bus, None
+        if bus is not None:
+            try:
+                bus.shutdown()
+            except Exception:
+                pass
+
+    def _lost(self, e: Exception) -> Status:
+        self.counters["bus_errors"] += 1
+        self.last_error = f"bus {self.bus_options.label}: {type(e).__name__}: {e}"
+        self._close_bus()
+        self._lost_at = time.monotonic()
+        self._next_attempt = self._lost_at + self.reconnect_interval
+        self._event("bus_lost", self.last_error)
+        return Status.ERROR
+
+    def _reconnect(self) -> bool:
+        now = time.monotonic()
+        if self._lost_at is None or now - self._lost_at > self.reconnect_timeout or now < self._next_attempt:
+            return False
+        self._next_attempt = now + self.reconnect_interval
+        try:
+            self._open()
+        except HardwareError as e:
+            self.last_error = str(e)
+            return False
+        self.counters["reconnects"] += 1
+        self._event("bus_back", f"reopened after {now - self._lost_at:.3f} s")
+        return True
+
+    # -- hooks and bookkeeping -------------------------------------------------------------
+    def _after_send(self) -> None:
+        """Called right after frames were sent (the embedded simulator answers here)."""
+
+    def _clock(self) -> float:
+        """The clock the drives' watchdogs run on."""
+        return time.monotonic()
+
+    def _stale_ids(self) -> list[int]:
+        return [j.drive_id for j, k in zip(self.joints, self._stale) if k >= self.stale_limit]
+
+    def _event(self, kind: str, reason: str) -> None:
+        self.events.append({"event": kind, "reason": reason, "t": self._stamp, "clock": self._clock()})
+        log.warning(kind, device=self.name, reason=reason)
+
+    def _event_once(self, kind: str, reason: str) -> None:
+        if not self.events or self.events[-1]["event"] != kind:
+            self.last_error = reason
+            self._event(kind, reason)
+
+    def diagnostics(self) -> dict:
+        d = super().diagnostics()
+        d.update(bus=self.bus_options.label, counters=dict(self.counters), events=self.events[-20:],
+                 stale_ticks=dict(zip(self.joint_names, self._stale.tolist())))
+        return d
