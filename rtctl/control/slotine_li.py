@@ -37,8 +37,8 @@ import numpy as np
 from rtctl.control.base import Controller
 from rtctl.control.consistency import project_consistent
 from rtctl.control.gains import per_joint
-from rtctl.control.slotine_li_kernels import BODY_SLOTS, CLASSIC, CSTAR, PHI_VECTORS, TMP_VECTORS, \
-    slotine_li_update_kernel
+from rtctl.control.slotine_li_kernels import ARMATURE, BODY_SLOTS, CLASSIC, COULOMB, COULOMB_VELOCITY, CSTAR, \
+    DEAD_ZONE, KD, LAM, LAW, MOTOR, PROJECT, STEP, TAU, VISCOUS, WORK_ROWS, slotine_li_update_kernel
 from rtctl.model.dynamics import model_arrays
 
 LAWS = {"cstar": CSTAR, "classic": CLASSIC}
@@ -101,7 +101,8 @@ class SlotineLi(Controller):
     """The adaptive controller; ``law`` is ``"cstar"`` (the paper's) or ``"classic"``.
 
     ``lam`` (Λ) and ``kd`` (K_D): one number or one per joint; ``gamma`` (P): see
-    :func:`adaptation_gains`; ``params0``/``params_scale``: see :func:`initial_params`.
+    :func:`adaptation_gains`; ``params0``/``params_scale``: see :func:`initial_params`;
+    ``motor_model``: add the robot file's armature and friction as known feed-forward.
     """
 
     def __init__(self, model, law="cstar", lam=10.0, kd=50.0, gamma=1.0, params0="true", joints=None, divisor=1,
@@ -112,27 +113,29 @@ class SlotineLi(Controller):
             raise ValueError(f"law must be one of {sorted(LAWS)}, got {law!r}")
         n = model.nq
         self.law, self.projection, self.dead_zone = law, bool(projection), float(dead_zone)
-        self.lam = np.broadcast_to(np.asarray(lam, float), (n,)).copy()
-        self.kd = np.broadcast_to(np.asarray(kd, float), (n,)).copy()
+        motors = model.motors if motor_model else None
+        self.motor_model = motors is not None
+        self.settings = np.zeros(6)
+        self.settings[[LAW, PROJECT, MOTOR, COULOMB_VELOCITY, DEAD_ZONE]] = (
+            LAWS[law], self.projection, self.motor_model, coulomb_velocity, self.dead_zone)
+        self.gains = np.zeros((5, n))
+        self.gains[LAM], self.gains[KD] = lam, kd
+        if motors is not None:
+            self.gains[ARMATURE], self.gains[VISCOUS], self.gains[COULOMB] = (
+                motors.armature, motors.viscous, motors.coulomb)
+        self.lam, self.kd = self.gains[LAM], self.gains[KD]
         self.gamma = adaptation_gains(gamma, n)
         self.params0 = initial_params(model, params0, params_scale)
         self.params_hat = self.params0.copy()
         self.params_dot = np.zeros((n, 10))
         self.arrays = model_arrays(model)
-        motors = model.motors if motor_model else None
-        self.motor_model = motors is not None
-        self.motor = np.zeros((3, n)) if motors is None else np.array([motors.armature, motors.viscous, motors.coulomb])
-        self.coulomb_velocity = float(coulomb_velocity)
-        self.tau, self.s, self.qdr, self.qddr = (np.zeros(n) for _ in range(4))
-        self._work = self._workspace(n)
-        self._scratch = self._workspace(n) + tuple(np.zeros(n) for _ in range(5)) + (np.zeros((n, 10)),)
+        self.signals = np.zeros((4, n))  # q̇_r, q̈_r, s, τ
+        self.qdr, self.qddr, self.s, self.tau = self.signals
+        self._work = (np.zeros((n, 4, 3)), np.zeros((n, BODY_SLOTS, 6)), np.zeros((WORK_ROWS, 10)))
+        self._scratch = (np.zeros((n, 4, 3)), np.zeros((n, BODY_SLOTS, 6)), np.zeros((WORK_ROWS, 10)),
+                         np.zeros(6), np.zeros((4, n)), np.zeros((n, 10)))
         self._t_prev = np.nan
         self.internals = {"params_hat": self.params_hat.reshape(-1), "s": self.s}
-
-    @staticmethod
-    def _workspace(n):
-        return (np.zeros((n, 4, 3)), np.zeros((n, BODY_SLOTS, 6)), np.zeros((TMP_VECTORS, 6)),
-                np.zeros((PHI_VECTORS, 10)), np.zeros((4, 4)), np.zeros((4, 4)), np.zeros(10))
 
     @classmethod
     def from_config(cls, cfg, model):
@@ -161,23 +164,22 @@ class SlotineLi(Controller):
         result: use :meth:`update` in a loop)."""
         n = self.model.nq
         vec = [np.ascontiguousarray(x, dtype=float).reshape(n) for x in (q, qd, q_des, qd_des, qdd_des)]
-        X, body, tmp, phi, A, V, a, qdr, qddr, s, tau, _, params_dot = self._scratch
-        self._tick(0.0, False, (X, body, tmp, phi, A, V, a), *vec, qdr, qddr, s, tau, params_dot)
-        return tau.copy(), params_dot.copy()
+        X, body, work, settings, signals, params_dot = self._scratch
+        settings[:] = self.settings
+        settings[STEP] = 0.0
+        self._tick(settings, (X, body, work), *vec, signals, params_dot)
+        return signals[TAU].copy(), params_dot.copy()
 
-    def _tick(self, h, project, work, q, qd, q_d, qd_d, qdd_d, qdr, qddr, s, tau, params_dot):
-        X, body, tmp, phi, A, V, a = work
+    def _tick(self, settings, work, q, qd, q_d, qd_d, qdd_d, signals, params_dot):
         m = self.arrays
-        slotine_li_update_kernel(LAWS[self.law], h, project, self.motor_model, self.motor, self.coulomb_velocity,
-                                 m.joint, m.geom, self.params_hat, m.gravity, X, body, tmp, phi, A, V, a, q, qd, q_d,
-                                 qd_d, qdd_d, self.lam, self.kd, self.gamma, self.dead_zone, qdr, qddr, s, tau,
-                                 params_dot)
+        slotine_li_update_kernel(settings, m.joint, m.geom, self.params_hat, m.gravity, self.gains, self.gamma, *work,
+                                 q, qd, q_d, qd_d, qdd_d, signals, params_dot)
 
     def project(self) -> int:
         """Apply the consistency projection to the current estimates now; returns the number of
         half-space corrections made."""
-        _, _, _, _, A, V, a = self._work
-        return project_consistent(self.params_hat, self.gamma, A, V, a)
+        work = self._work[2]
+        return project_consistent(self.params_hat, self.gamma, work[9:13, :4], work[13:17, :4], work[8])
 
     def reset(self, state=None) -> None:
         """Restore π̂(0); the next update starts a fresh integration."""
@@ -186,8 +188,8 @@ class SlotineLi(Controller):
         self._t_prev = np.nan
 
     def update(self, t, state, ref, command):
-        h = t - self._t_prev if self._t_prev == self._t_prev else 0.0  # nan ≠ nan: first update
+        self.settings[STEP] = t - self._t_prev if self._t_prev == self._t_prev else 0.0  # nan ≠ nan: first update
         self._t_prev = t
-        self._tick(h, self.projection, self._work, state.position, state.velocity, ref.q, ref.qd, ref.qdd, self.qdr,
-                   self.qddr, self.s, self.tau, self.params_dot)
+        self._tick(self.settings, self._work, state.position, state.velocity, ref.q, ref.qd, ref.qdd, self.signals,
+                   self.params_dot)
         self.emit(command.tau_ff, self.tau)
