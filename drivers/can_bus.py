@@ -88,7 +88,7 @@ def read_bus_options(t: Table) -> BusOptions:
     bitrate = kwargs.get("bitrate")
     if bitrate is not None and (not isinstance(bitrate, int) or isinstance(bitrate, bool) or bitrate <= 0):
         raise bt.error("bitrate", f"a positive integer (bit/s), got {bitrate!r}")
-    label = f"{channel}" if interface != "socketcand" else f"{channel}@{host}:{port}"
+    label = str(channel)
     return BusOptions(kwargs, bitrate or DEFAULT_BITRATE, bitrate is None,
                       (interface, str(channel), host, port), label)
 

@@ -1,0 +1,198 @@
+"""``hil-sim CONFIG``: the robot of a run configuration — plant and emulated MIT drives — in
+its own process, behind a real transport, for ``rtctl run`` to drive (DESIGN §2).
+
+    hil-sim configs/puma560_hil_socketcand.toml                    # transport from the config
+    hil-sim CONFIG --transport socketcand [--host H] [--port N]     # 0 (default): a free port
+    hil-sim CONFIG --transport slcan                                # one pty per bus
+    hil-sim CONFIG --realtime-factor 1                              # free-running (default 0: lock-step)
+    hil-sim CONFIG --fault silent:3@1000 --fault corrupt:2:0.02     # scripted faults (hil_sim.lockstep)
+
+The drives are those of the configuration's ``mit_can`` devices (ids, models, mounting: the
+same layout the driver reads); devices naming the same bus options share a bus (a socketcand
+channel, or a pty). A configuration without ``mit_can`` devices (an embedded ``[sim]`` one)
+gets the embedded CAN simulator's drives on one bus ``can0``. Plant options: the ``[sim]``
+table when there is one, else its defaults.
+
+Stdout, one JSON object per line: first where it listens, e.g.
+``{"transport": "socketcand", "host": "127.0.0.1", "port": 41234, "channels": ["can0"],
+"env": {"HIL_SIM_PORT": "41234"}}`` or ``{"transport": "slcan", "ttys": {...}, "env":
+{"HIL_SIM_TTY": "/dev/pts/5"}}`` — ``env`` holds the variables the configuration's bus
+options name as ``${VAR}`` (set them for ``rtctl run``) — then events (motors on/off, faults),
+and on SIGTERM/SIGINT a last ``{"event": "exit", …}`` with every drive's state and counters.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import threading
+from pathlib import Path
+
+from drivers.can_bus import ENV_TEMPLATE
+from drivers.protocols.mit_layout import read_master_id, read_mit_joints
+from hil_sim.can_rig import emulated_drives, sim_layout
+from hil_sim.embedded import SimPlantHub
+from hil_sim.lockstep import HubDriveBus, PlantHub, ScriptedFault
+from rtctl.config import joint_indices
+from rtctl.errors import RtctlError
+from rtctl.model import load_robot
+from rtctl.tomltable import Table, load_toml
+
+
+def emit(event: dict) -> None:
+    print(json.dumps(event), flush=True)
+
+
+class BusPlan:
+    """One bus to serve: its drives' layout and how the configuration names it."""
+
+    def __init__(self, raw: dict, name: str):
+        self.raw, self.name = raw, name
+        self.layout: list = []  # (MitJoint, plant index)
+        self.master_id = 0
+
+
+def plan(path: Path):
+    """(model, period, [sim] Table or None, [BusPlan]) from a run configuration."""
+    t = load_toml(path)
+    robot = t.table("robot")
+    model = load_robot(path.parent / robot.str("description"))
+    loop = t.table("loop", None)
+    period = 1.0 / (loop.float("rate_hz", 1000.0, positive=True) if loop is not None else 1000.0)
+    sim = t.table("sim", None)
+    buses: dict[tuple, BusPlan] = {}
+    for d in t.tables("devices", []):
+        if d.str("driver", "") != "mit_can" or sim is not None:
+            continue
+        indices = joint_indices(d, "joints", model)
+        raw = d.table("bus").data
+        key = tuple(str(raw.get(k)) for k in ("interface", "channel", "host", "port"))
+        bus = buses.get(key)
+        if bus is None:
+            bus = buses[key] = BusPlan(raw, str(raw.get("channel", f"can{len(buses)}")))
+        bus.master_id = read_master_id(d)
+        bus.layout += zip(read_mit_joints(d, [model.joint_names[i] for i in indices]), indices)
+    if not buses:
+        indices = tuple(range(model.nq))
+        bus = buses[()] = BusPlan({"interface": "socketcand", "channel": "can0"}, "can0")
+        bus.layout = list(zip(sim_layout(model, indices), indices))
+    return model, period, sim, list(buses.values())
+
+
+def env_names(raw: dict, key: str) -> list[str]:
+    """The environment variables a bus option names (``${VAR}``)."""
+    value = raw.get(key)
+    return [m[0] for m in ENV_TEMPLATE.findall(value)] if isinstance(value, str) else []
+
+
+def build(args):
+    path = Path(args.config)
+    model, period, sim, plans = plan(path)
+    if sim is None:
+        sim = Table({}, path, "sim")
+    sim.str("transport", "direct")  # (the embedded simulator's choice; not ours)
+    plant = SimPlantHub.from_options(sim, model, period, path.parent).plant
+    plant.step(0.0)  # load the compiled step before announcing
+    hub = PlantHub(plant, period, args.realtime_factor, emit)
+    hub.faults = [ScriptedFault.parse(s) for s in args.fault]
+    buses = []
+    for p in plans:
+        joints, indices = zip(*p.layout)
+        drives = emulated_drives(joints, indices, plant, timeout_s=args.drive_timeout_ms / 1e3, master_id=p.master_id)
+        buses.append(HubDriveBus(drives, p.name, hub))
+    return hub, plans, buses
+
+
+def serve_socketcand(args, hub, plans, buses) -> None:
+    from hil_sim.socketcand import SocketcandServer
+
+    port = args.port
+    if port is None:  # the configuration's port, or the default of its ${VAR:-default}, else a free one
+        for p in plans:
+            value = p.raw.get("port")
+            m = ENV_TEMPLATE.fullmatch(value) if isinstance(value, str) else None
+            port = value if isinstance(value, int) else (int(m.group(2)) if m and m.group(2) else None)
+            if port is not None:
+                break
+        port = port or 0
+    server = SocketcandServer(buses, args.host, port)
+    hub.drop_connections = server.drop_connections
+    info = server.info()
+    info["env"] = {}
+    for p in plans:
+        info["env"].update({name: str(info["port"]) for name in env_names(p.raw, "port")})
+        info["env"].update({name: info["host"] for name in env_names(p.raw, "host")})
+    _stop_on_signals(server.shutdown)
+    emit(info)
+    try:
+        server.serve_forever()
+    finally:
+        emit({**hub.summary(), "server": server.counters})
+
+
+def serve_slcan(args, hub, plans, buses) -> None:
+    from hil_sim.slcan import SlcanAdapter
+
+    adapters = [SlcanAdapter(b, ack_transmit=not args.no_ack) for b in buses]
+    info = {"transport": "slcan", "tty": adapters[0].path, "ttys": {b.name: a.path for b, a in zip(buses, adapters)},
+            "env": {name: a.path for p, a in zip(plans, adapters) for name in env_names(p.raw, "channel")}}
+    stop = threading.Event()
+    _stop_on_signals(stop.set)
+    threads = [threading.Thread(target=a.serve_forever, daemon=True) for a in adapters]
+    for th in threads:
+        th.start()
+    emit(info)
+    try:
+        while not stop.wait(0.5):  # (a signal handler runs in the main thread between waits)
+            pass
+    finally:
+        for a in adapters:
+            a.shutdown()
+        for th in threads:
+            th.join(5.0)
+        emit({**hub.summary(), "server": [a.counters for a in adapters]})
+
+
+def _stop_on_signals(stop) -> None:
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: stop())
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="hil-sim", description=__doc__.split("\n\n")[0],
+                                epilog=__doc__.split("\n\n", 1)[1], formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("config", help="run configuration (TOML) whose robot and CAN devices to play")
+    p.add_argument("--transport", choices=("socketcand", "slcan"), help="default: the configuration's bus interface")
+    p.add_argument("--host", default="127.0.0.1", help="socketcand: address to listen on (loopback)")
+    p.add_argument("--port", type=int, help="socketcand: TCP port (default: the configuration's, else a free one)")
+    p.add_argument("--realtime-factor", type=float, default=0.0, metavar="F",
+                   help="0 (default): lock-step, one period per command set; F > 0: free-running at F × wall clock")
+    p.add_argument("--drive-timeout-ms", type=float, default=20.0, help="the drives' command watchdog")
+    p.add_argument("--fault", action="append", default=[], metavar="SPEC",
+                   help="silent:ID | corrupt:ID:RATE | error:ID:CODE | drop, ID as N or BUS/N, optional @CYCLES")
+    p.add_argument("--no-ack", action="store_true", help="slcan: do not acknowledge transmits (z/Z)")
+    args = p.parse_args(argv)
+    if args.realtime_factor < 0:
+        p.error("--realtime-factor must be ≥ 0")
+    try:
+        for spec in args.fault:
+            ScriptedFault.parse(spec)
+        hub, plans, buses = build(args)
+    except (RtctlError, ValueError) as e:
+        print(f"hil-sim: {e}", file=sys.stderr)
+        return 2
+    transport = args.transport or plans[0].raw.get("interface")
+    if transport == "slcan":
+        serve_slcan(args, hub, plans, buses)
+    elif transport == "socketcand":
+        serve_socketcand(args, hub, plans, buses)
+    else:
+        print(f"hil-sim: the configuration's bus interface is {transport!r}: choose --transport socketcand|slcan",
+              file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
