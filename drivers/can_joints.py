@@ -93,8 +93,11 @@ class MitCanJointGroup(JointGroup):
         self._stale = np.zeros(n, dtype=np.int64)
         self._zeros_i = np.zeros(n, dtype=np.int64)
         self._tmp = np.zeros(n)
-        self._p, self._v, self._t, self._zero = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
+        self._p, self._v, self._tau, self._zero = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
         self._stamp = 0.0
+        self._t_loop = 0.0  # loop time of the last read/write (for events)
+        self._missing_since = np.full(n, np.nan)  # loop time of the first unanswered command in a row
+        self._nans = np.full(n, np.nan)
         self._last_sent = -np.inf  # clock time of the last command (or enter motor mode) sent
         self._drives_off: str | None = None  # why the drives must be assumed off (their watchdog)
         self._lost_at: float | None = None  # monotonic time the bus was lost
@@ -188,6 +191,7 @@ class MitCanJointGroup(JointGroup):
 
     # -- per tick ------------------------------------------------------------------------
     def _read(self, t: float) -> Status:
+        self._t_loop = t
         got, s, tmp, stale = self._got, self.state, self._tmp, self._stale
         np.multiply(self._replies[:, REPLY_POSITION], self._dir, out=tmp)
         tmp += self._offset
@@ -207,7 +211,8 @@ class MitCanJointGroup(JointGroup):
         if self._drives_off is not None:
             return Status.DEACTIVATE
         if stale.max() >= self.stale_limit:
-            self._event_once("stale", f"no reply from drive(s) {self._stale_ids()} for {self.stale_limit} ticks")
+            self._event_once("stale", f"no reply from drive(s) {self._stale_ids()} for {self.stale_limit} ticks",
+                             missing_since=float(np.nanmin(self._missing_since)))
             return Status.ERROR
         if s.fault.any():
             self._event_once("drive_error", f"drive error codes {dict(zip(self.joint_names, s.fault.tolist()))}")
@@ -215,6 +220,7 @@ class MitCanJointGroup(JointGroup):
         return Status.OK
 
     def _write(self, t: float) -> Status:
+        self._t_loop = t
         if self.bus is None and not self._reconnect():
             return Status.ERROR
         now = self._clock()
@@ -222,7 +228,7 @@ class MitCanJointGroup(JointGroup):
             self._drives_off = (f"no command for {1e3 * (now - self._last_sent):.0f} ms, longer than the drives' "
                                 f"{1e3 * self.drive_timeout:g} ms watchdog: their motors are off")
             self._event("drives_off", self._drives_off)
-        c, p, v, tau = self.command, self._p, self._v, self._t
+        c, p, v, tau = self.command, self._p, self._v, self._tau
         if c.mode:  # impedance: the drive closes kp (p − q) + kd (v − q̇) + t
             np.subtract(c.q_des, self._offset, out=p)
             p *= self._dir
@@ -246,7 +252,10 @@ class MitCanJointGroup(JointGroup):
         except Exception as e:
             return self._lost(e)
         self.counters["cycles"] += 1
-        self.counters["missing_replies"] += missing
+        if missing:
+            self.counters["missing_replies"] += missing
+            np.copyto(self._missing_since, t, where=~self._cycle & np.isnan(self._missing_since))  # (rare path)
+        np.copyto(self._missing_since, self._nans, where=self._cycle)
         self._stamp = t
         return Status.DEACTIVATE if self._drives_off is not None else Status.OK
 
@@ -369,14 +378,16 @@ class MitCanJointGroup(JointGroup):
     def _stale_ids(self) -> list[int]:
         return [j.drive_id for j, k in zip(self.joints, self._stale) if k >= self.stale_limit]
 
-    def _event(self, kind: str, reason: str) -> None:
-        self.events.append({"event": kind, "reason": reason, "t": self._stamp, "clock": self._clock()})
-        log.warning(kind, device=self.name, reason=reason)
+    def _event(self, kind: str, reason: str, **fields) -> None:
+        event = {"event": kind, "reason": reason, "t": self._t_loop, "clock": self._clock(), **fields}
+        if len(self.events) < 100:
+            self.events.append(event)
+        log.warning(kind, device=self.name, **{k: v for k, v in event.items() if k != "event"})
 
-    def _event_once(self, kind: str, reason: str) -> None:
+    def _event_once(self, kind: str, reason: str, **fields) -> None:
         if not self.events or self.events[-1]["event"] != kind:
             self.last_error = reason
-            self._event(kind, reason)
+            self._event(kind, reason, **fields)
 
     def diagnostics(self) -> dict:
         d = super().diagnostics()

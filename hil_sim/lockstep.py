@@ -3,8 +3,9 @@ events the HIL tests read.
 
 Lock-step (``realtime_factor = 0``) follows the protocol: the plant advances one period when
 every drive of every bus has been sent a command since the last advance — one command set of
-the loop — whatever the wall clock says; the drives' watchdogs still run on the wall clock (a
-frozen loop turns the motors off after their timeout). Free-running (``realtime_factor = F > 0``)
+the loop — plus the whole periods a paced loop skipped before that set (time that passed for
+the robot, with the torques held); the drives' watchdogs run on the wall clock (a frozen loop
+turns the motors off after their timeout). Free-running (``realtime_factor = F > 0``)
 advances the plant with the wall clock × F, commands or not.
 
 Events are JSON-able dicts passed to ``emit``: every motor on/off of a drive with its cause
@@ -21,6 +22,8 @@ from typing import Callable
 
 from drivers.protocols import mit
 from hil_sim.mit_drive import MitDrive, MitDriveBus
+
+MAX_REPLAY_S = 0.1  # longest pause of the loop replayed for the plant (a stopped process: time jumps)
 
 
 @dataclass
@@ -64,19 +67,23 @@ class PlantHub:
         self.buses: list["HubDriveBus"] = []
         self.drives: list[tuple[str, MitDrive]] = []
         self.addressed: list[bool] = []
+        self._pending = 0  # drives not yet commanded in this cycle
         self._enabled: list[bool] = []
         self._trips: list[int] = []
         self.faults: list[ScriptedFault] = []
         self.drop_connections: Callable[[], None] | None = None  # set by the socketcand server
         self.cycles = 0
         self.t0 = clock()
-        self._sim_start: float | None = None  # wall time the free-running plant started
+        self._sim_start: float | None = None
+        self._first_set: float | None = None  # lock-step: arrival of the first command set
+        self._periods = 0  # lock-step: periods the plant advanced  # wall time the free-running plant started
 
     def add_bus(self, bus: "HubDriveBus") -> None:
         self.buses.append(bus)
         for d in bus.drives.values():
             self.drives.append((bus.name, d))
             self.addressed.append(False)
+            self._pending = len(self.addressed)
             self._enabled.append(d.enabled)
             self._trips.append(d.counters.watchdog_trips)
         if self.factor > 0 and len(self.buses) == 1:
@@ -90,22 +97,43 @@ class PlantHub:
         bus.call_at(self.clock(), tick)
 
     # -- called by the buses ------------------------------------------------------------------
-    def commanded(self, index: int) -> None:
-        self.addressed[index] = True
+    def commanded(self, index: int, now: float) -> None:
+        """Drive ``index`` was sent a command (and has answered it). The last of a command set
+        completes a cycle: lock-step advances the plant now, before the next set can arrive
+        (even when the transport delivers two sets in one read)."""
+        if not self.addressed[index]:
+            self.addressed[index] = True
+            self._pending -= 1
+        if self._pending == 0:
+            for k in range(len(self.addressed)):
+                self.addressed[k] = False
+            self._pending = len(self.addressed)
+            if self.factor == 0:
+                for _ in range(self._periods_due(now)):
+                    self.plant.step(self.period)
+            self.cycles += 1
+            self._scripted()
+
+    def _periods_due(self, now: float) -> int:
+        """One period per command set, plus the periods the loop skipped: a paced loop that
+        overran sends its next set whole periods later, and that time passed for the robot too
+        (replayed with the torques held, at most MAX_REPLAY_S)."""
+        if self._first_set is None:
+            self._first_set, self._periods = now, 0
+        due = int((now - self._first_set) / self.period) - self._periods
+        due = min(max(1, due), max(1, round(MAX_REPLAY_S / self.period)))
+        if self._periods + due < int((now - self._first_set) / self.period) - round(MAX_REPLAY_S / self.period):
+            self._first_set = now - (self._periods + due) * self.period  # a long stop: do not replay it all
+        self._periods += due
+        return due
 
     def advance(self, now: float) -> None:
+        """MitDriveBus.service's plant hook: watchdogs and laws now; free-running: the plant up to now."""
         with self.lock:
             for _, d in self.drives:
-                d.update(now)  # watchdogs, and the law on the present state
+                d.update(now)
             if self.factor > 0:
                 self._free_run(now)
-            if all(self.addressed):
-                for k in range(len(self.addressed)):
-                    self.addressed[k] = False
-                if self.factor == 0:
-                    self.plant.step(self.period)
-                self.cycles += 1
-                self._scripted()
             self.check(now)
 
     def _free_run(self, now: float) -> None:
@@ -173,7 +201,7 @@ class HubDriveBus(MitDriveBus):
             super().receive(arbitration_id, data, now, out, is_extended)
             k = None if is_extended else self._index.get(arbitration_id)
             if k is not None and len(data) == mit.COMMAND_LENGTH and not mit.is_special_prefix(data):
-                self.hub.commanded(k)
+                self.hub.commanded(k, now)
             self.hub.check(now)
 
     def service(self, now: float, out: list) -> None:

@@ -1,0 +1,91 @@
+"""`hil-sim` as a separate process, run configurations derived from the shipped HIL ones, and
+`rtctl run` against them (reusing tests/runtime/runtime_helpers)."""
+from __future__ import annotations
+
+import json
+import os
+import select
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "tests" / "runtime"))
+from runtime_helpers import Daemon, rtctl  # noqa: E402,F401  (re-exported)
+
+from rtctl.telemetry import read  # noqa: E402
+
+CONFIGS = ROOT / "configs"
+
+
+class HilSim:
+    """``hil-sim CONFIG ARGS…`` in its own process; ``info`` is its first JSON line."""
+
+    def __init__(self, config, *args, timeout: float = 60.0):
+        self.proc = subprocess.Popen([sys.executable, "-m", "hil_sim.cli", str(config), *map(str, args)],
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+        self.events: list[dict] = []
+        ready, _, _ = select.select([self.proc.stdout], [], [], timeout)
+        line = self.proc.stdout.readline() if ready else ""
+        if not line:
+            self.kill()
+            raise AssertionError(f"hil-sim did not announce itself: {self.proc.stderr.read()}")
+        self.info = json.loads(line)
+
+    def env(self) -> dict:
+        return {**os.environ, **self.info["env"]}
+
+    def stop(self, timeout: float = 15.0) -> dict:
+        """SIGTERM, then its events; returns the exit event."""
+        self.proc.send_signal(signal.SIGTERM)
+        out, err = self.proc.communicate(timeout=timeout)
+        assert self.proc.returncode == 0, err
+        self.events = [json.loads(line) for line in out.splitlines() if line.strip()]
+        exits = [e for e in self.events if e.get("event") == "exit"]
+        assert exits, f"no exit event from hil-sim: {out[-2000:]} {err[-2000:]}"
+        return exits[-1]
+
+    def of(self, kind: str) -> list[dict]:
+        return [e for e in self.events if e.get("event") == kind]
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+            self.proc.communicate()
+
+
+def variant(tmp_path: Path, shipped: str, name: str = "run.toml", **settings) -> Path:
+    """A copy of ``configs/<shipped>`` in ``tmp_path``: robot path made absolute, telemetry
+    dropped (the tests pass --telemetry), and ``key = value`` lines replaced by ``settings``."""
+    text = (CONFIGS / shipped).read_text()
+    text = text.replace('description = "robots/', f'description = "{CONFIGS}/robots/')
+    lines = []
+    for line in text.splitlines():
+        key = line.split("=", 1)[0].strip()
+        if key in settings:
+            line = f"{key} = {settings[key]}"
+        if not line.startswith("path = "):
+            lines.append(line)
+    path = tmp_path / name
+    path.write_text("\n".join(lines).replace("[telemetry]", "") + "\n")
+    return path
+
+
+def run(config, tmp_path: Path, env: dict, *extra, duration: float = 3.0, timeout: float = 90.0):
+    """``rtctl run`` to the end; (returncode, summary, telemetry, stderr)."""
+    telemetry, summary = tmp_path / "run.msgpack", tmp_path / "summary.json"
+    result = rtctl("run", config, "--duration", duration, "--telemetry", telemetry, "--summary", summary,
+                   "--socket", tmp_path / "rtctl.sock", *extra, env=env, timeout=timeout)
+    assert summary.exists(), result.stderr[-3000:]
+    return result.returncode, json.loads(summary.read_text()), read(telemetry), result.stderr
+
+
+def wait_for(predicate, timeout: float = 30.0, step: float = 0.05) -> bool:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        time.sleep(step)
+    return False

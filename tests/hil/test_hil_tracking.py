@@ -1,0 +1,57 @@
+"""HIL: `hil-sim` in its own process plays the robot and its MIT drives; `rtctl run` closes the
+loop through python-can — the PUMA 560 over socketcand (six joints, 500 Hz, one 1 Mbit/s bus)
+and three joints over slcan on a pty. Measured bounds are in the asserts' comments."""
+import numpy as np
+import pytest
+
+from hil_helpers import run, variant
+
+pytestmark = pytest.mark.hil
+
+# On this shared 2-core machine the loop has no real-time priority and stalls of 20+ ms happen;
+# the nominal runs give the drives (and the driver's gap check) a 100 ms watchdog so that such a
+# stall is not a fault. The 20 ms watchdog itself is exercised in test_hil_faults.
+TOLERANT = {"drive_timeout": 0.1}
+
+
+def check_complete(summary, telemetry, sim_exit):
+    assert telemetry.rows == summary["timing"]["ticks"] == summary["telemetry"]["rows"]
+    assert all(dev["lifecycle"] == "closed" for dev in summary["devices"].values())
+    assert not any(d["enabled"] for d in sim_exit["drives"]), "a drive was left in motor mode"
+
+
+def test_puma560_over_socketcand_tracks_its_trajectory(tmp_path, hil_sim):
+    config = variant(tmp_path, "puma560_hil_socketcand.toml", **TOLERANT)
+    sim = hil_sim(config, "--port", 0, "--drive-timeout-ms", 100)
+    assert sim.info["transport"] == "socketcand" and sim.info["channels"] == ["can0"]
+    code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=4.0)
+    sim_exit = sim.stop()
+    assert code == 0, err[-3000:]
+    check_complete(summary, telemetry, sim_exit)
+    arm = summary["devices"]["arm"]["counters"]
+    assert arm["malformed_replies"] == 0 and arm["bus_errors"] == 0
+    # every command set the loop sent advanced the plant once (lock-step per protocol)
+    assert sim_exit["cycles"] == arm["cycles"] == summary["timing"]["ticks"]
+    assert all(d["counters"]["commands"] == arm["cycles"] for d in sim_exit["drives"])
+    # the joints followed the trajectory: measured max 0.005-0.07 rad, RMS 0.001-0.012 rad
+    # (the larger values when the machine is busy: skipped periods jump the reference ahead)
+    tracking = summary["tracking_error_rad"]
+    assert tracking["max_all"] < 0.15 and tracking["rms_all"] < 0.03, tracking
+    moved = np.ptp(telemetry["q"], axis=0)
+    assert np.all(moved[:3] > np.radians(20)), moved  # it did move along the waypoints
+
+
+def test_three_joints_over_slcan_track_their_trajectory(tmp_path, hil_sim):
+    config = variant(tmp_path, "three_joint_slcan.toml", **TOLERANT)
+    sim = hil_sim(config, "--drive-timeout-ms", 100)
+    assert sim.info["transport"] == "slcan" and sim.info["env"]["HIL_SIM_TTY"] == sim.info["tty"]
+    code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=4.0)
+    sim_exit = sim.stop()
+    assert code == 0, err[-3000:]
+    check_complete(summary, telemetry, sim_exit)
+    tracking = summary["tracking_error_rad"]
+    assert tracking["max_all"] < 0.15 and tracking["rms_all"] < 0.03, tracking
+    # the shoulder's drive is mounted reversed with an offset: the loop still sees the joint, which
+    # moved from 0 towards +20° and -10°, while the drive reported -(q - 0.5)
+    q = telemetry["q"][:, 1]
+    assert q.max() > np.radians(15) and q.min() < np.radians(-5)
