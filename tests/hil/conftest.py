@@ -1,6 +1,7 @@
 import pytest
 
 from hil_helpers import HilSim
+from runtime_helpers import write_config  # noqa: F401  (fixture)
 
 
 @pytest.fixture

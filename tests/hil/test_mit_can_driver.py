@@ -1,0 +1,194 @@
+"""The mit_can driver in-process: the real driver on a python-can virtual bus, emulated drives
+(hil_sim.mit_drive) on the far end, pumped right after each send, on a clock the test owns."""
+import uuid
+
+import can
+import numpy as np
+import pytest
+
+from drivers.can_bus import BusOptions
+from drivers.can_joints import MitCanJointGroup
+from drivers.protocols.mit import DRIVE_MODELS, KATZ
+from drivers.protocols.mit_layout import MitJoint
+from hil_sim.can_rig import MappedJointPort
+from hil_sim.mit_drive import MitDrive, MitDriveBus, pump
+from rtctl.errors import HardwareError
+from rtctl.hal import CommandMode, Status
+
+P_LSB, V_LSB, T_LSB = 25 / 65535, 130 / 4095, 36 / 4095
+
+
+class Rig(MitCanJointGroup):
+    """Joints whose 'plant' is arrays the test sets (q, qd) and reads (tau)."""
+
+    def __init__(self, joints, **kw):
+        channel = f"test-{uuid.uuid4().hex}"
+        bus = BusOptions({"interface": "virtual", "channel": channel}, 1_000_000, False,
+                         ("virtual", channel, None, None), channel)
+        kw = {"reply_deadline": 0.0, "exchange_timeout": 0.0, **kw}
+        super().__init__("arm", joints, bus, period=0.001, **kw)
+        n = len(joints)
+        self.q, self.qd, self.tau = np.zeros(n), np.zeros(n), np.zeros(n)
+        self.drive_list = [MitDrive(j.drive_id, MappedJointPort(self.q, self.qd, self.tau, k, j.direction, j.offset),
+                                    j.model) for k, j in enumerate(joints)]
+        self.drives = MitDriveBus(self.drive_list)
+        self.peer = can.Bus(interface="virtual", channel=channel)
+        self.now = 0.0
+
+    def _after_send(self):
+        pump(self.drives, self.peer, now=self.now)
+
+    def _clock(self):
+        return self.now
+
+    def tick(self, dt=0.001):
+        """One loop tick: read, then write the present command."""
+        self.now += dt
+        return self.read(self.now), self.write(self.now)
+
+
+@pytest.fixture
+def rig():
+    made = []
+
+    def make(joints=None, **kw):
+        joints = joints or [MitJoint("a", 1, KATZ), MitJoint("b", 2, KATZ)]
+        r = Rig(joints, **kw)
+        made.append(r)
+        return r
+
+    yield make
+    for r in made:
+        r.close()
+        r.peer.shutdown()
+
+
+def test_configure_reads_the_state_without_enabling_any_drive(rig):
+    r = rig()
+    r.q[:] = [0.3, -0.2]
+    r.qd[:] = [1.0, -2.0]
+    r.configure()
+    assert r.read(0.0) == Status.OK
+    assert np.all(r.state.fresh)
+    assert np.all(np.abs(r.state.position - r.q) <= P_LSB)
+    assert np.all(np.abs(r.state.velocity - r.qd) <= V_LSB)
+    assert not any(d.enabled for d in r.drive_list) and all(d.counters.specials == 1 for d in r.drive_list)
+
+
+def test_torque_mode_sends_zero_gains_and_the_torque(rig):
+    r = rig()
+    r.activate()
+    assert all(d.enabled for d in r.drive_list)
+    r.command.mode = CommandMode.TORQUE
+    r.command.kp[:] = 99.0  # ignored in torque mode
+    r.command.tau_ff[:] = [5.0, -3.0]
+    assert r.tick() == (Status.OK, Status.OK)
+    for d, tau in zip(r.drive_list, (5.0, -3.0)):
+        assert d.command.kp == 0.0 and d.command.kd == 0.0
+        assert d.command.t == pytest.approx(tau, abs=T_LSB)
+    assert r.tau == pytest.approx([5.0, -3.0], abs=T_LSB)
+
+
+def test_impedance_through_a_reversed_mount_with_an_offset(rig):
+    r = rig([MitJoint("a", 1, KATZ, direction=-1.0, offset=0.5)])
+    r.q[:] = 0.1
+    r.activate()
+    c = r.command
+    c.mode = CommandMode.IMPEDANCE
+    c.q_des[:], c.qd_des[:], c.kp[:], c.kd[:], c.tau_ff[:] = 0.2, 0.1, 50.0, 2.0, 1.0
+    r.tick()
+    d = r.drive_list[0]
+    assert d.command.p == pytest.approx(-(0.2 - 0.5), abs=P_LSB)  # drive frame: −(q − offset)
+    assert d.command.v == pytest.approx(-0.1, abs=V_LSB)
+    assert d.command.t == pytest.approx(-1.0, abs=T_LSB)
+    # the torque on the joint is the joint-space law kp (q_des − q) + kd (qd_des − qd) + τ
+    assert r.tau[0] == pytest.approx(50.0 * (0.2 - 0.1) + 2.0 * 0.1 + 1.0, abs=50 * P_LSB + 2 * V_LSB + T_LSB)
+    r.read(r.now)
+    assert r.state.position[0] == pytest.approx(0.1, abs=P_LSB)
+
+
+def test_a_missing_reply_is_stale_and_the_stale_limit_is_an_error(rig):
+    r = rig()
+    r.activate()
+    r.tick()
+    r.drive_list[1].faults.silent = True
+    statuses = [r.tick()[0] for _ in range(4)]
+    # the reply of the silencing tick's commands is missing at the next read: stale 1, 2, 3 → ERROR
+    assert statuses == [Status.OK, Status.OK, Status.OK, Status.ERROR]
+    assert list(r.state.fresh) == [True, False]
+    assert r.counters["missing_replies"] == 4 and "0x2" not in (r.last_error or "")
+    r.drive_list[1].faults.silent = False
+    r.tick()
+    assert r.tick()[0] == Status.OK and np.all(r.state.fresh)
+
+
+def test_a_pause_longer_than_the_drives_watchdog_is_their_stop(rig):
+    r = rig(drive_timeout=0.02)
+    r.activate()
+    r.tick()
+    r.now += 0.05  # the loop froze for 50 ms; the drives' time went on
+    r.drives.service(r.now, [])
+    read, write = r.tick()
+    assert write == Status.DEACTIVATE
+    assert not any(d.enabled for d in r.drive_list) and all(d.counters.watchdog_trips == 1 for d in r.drive_list)
+    assert r.tick()[0] == Status.DEACTIVATE  # until activated again
+    r.deactivate()
+    r.activate()
+    assert r.tick() == (Status.OK, Status.OK)
+
+
+def test_set_zero_is_refused_while_active(rig):
+    r = rig()
+    r.q[:] = [0.4, 0.0]
+    r.configure()
+    r.set_zero()
+    assert r.drive_list[0].zero_offset == 0.4
+    r.activate()
+    with pytest.raises(HardwareError, match="not active"):
+        r.set_zero()
+
+
+def test_a_bus_error_is_an_error_then_reconnects_and_deactivate_always_turns_the_drives_off(rig):
+    r = rig(reconnect_interval=1e-6)
+    r.activate()
+    r.tick()
+    r.read(r.now)
+    r.bus.shutdown()  # the link breaks under the driver
+    assert r.write(r.now) == Status.ERROR and r.bus is None and r.counters["bus_errors"] == 1
+    assert r.read(r.now) == Status.ERROR and not r.state.fresh.any()
+    assert r.write(r.now) == Status.OK and r.counters["reconnects"] == 1  # reopened, drives still on
+    r.bus.shutdown()
+    r.write(r.now)
+    r.deactivate()  # reopens once to say exit motor mode
+    assert not any(d.enabled for d in r.drive_list)
+    assert [e["event"] for e in r.events] == ["bus_lost", "bus_back", "bus_lost"]
+
+
+def test_malformed_and_foreign_frames_are_counted_and_ignored(rig):
+    r = rig()
+    r.activate()
+    r.peer.send(can.Message(arbitration_id=0, data=b"\x01\x02\x03", is_extended_id=False))  # truncated reply
+    r.peer.send(can.Message(arbitration_id=0x123, data=b"\x00" * 8, is_extended_id=False))  # another id
+    r.peer.send(can.Message(arbitration_id=0, data=bytes([0x77, 0, 0, 0, 0, 0]), is_extended_id=False))  # unknown drive
+    assert r.tick() == (Status.OK, Status.OK)
+    assert r.counters["malformed_replies"] == 2 and r.counters["foreign_frames"] == 1
+    assert r.tick() == (Status.OK, Status.OK) and np.all(r.state.fresh)
+
+
+def test_a_drive_error_code_is_reported_per_joint(rig):
+    r = rig([MitJoint("a", 1, DRIVE_MODELS["dm4310"]), MitJoint("b", 2, DRIVE_MODELS["dm4310"])])
+    r.activate()
+    r.tick()
+    r.drive_list[1].set_error(0xA)  # Damiao: state ≥ 8 in the reply's high nibble is an error
+    r.tick()
+    assert r.tick()[0] == Status.ERROR
+    assert list(r.state.fault) == [0, 0xA]
+
+
+def test_enter_motor_mode_must_be_answered_by_every_drive(rig):
+    r = rig()
+    r.configure()
+    r.drive_list[0].faults.silent = True
+    with pytest.raises(HardwareError, match="0x1.*enter motor mode"):
+        r.activate()
+    assert not r.drive_list[1].enabled  # the one that answered was turned off again
