@@ -2,7 +2,7 @@
 its own process, behind a real transport, for ``rtctl run`` to drive (DESIGN §2).
 
     hil-sim configs/puma560_hil_socketcand.toml                    # transport from the config
-    hil-sim CONFIG --transport socketcand [--host H] [--port N]     # 0 (default): a free port
+    hil-sim CONFIG --transport socketcand [--host H] [--port N]     # default: the config's port; 0: a free one
     hil-sim CONFIG --transport slcan                                # one pty per bus
     hil-sim CONFIG --realtime-factor 1                              # free-running (default 0: lock-step)
     hil-sim CONFIG --fault silent:3@1000 --fault corrupt:2:0.02     # scripted faults (hil_sim.lockstep)

@@ -6,7 +6,8 @@ every drive of every bus has been sent a command since the last advance — one 
 the loop — plus the whole periods a paced loop skipped before that set (time that passed for
 the robot, with the torques held); the drives' watchdogs run on the wall clock (a frozen loop
 turns the motors off after their timeout). Free-running (``realtime_factor = F > 0``)
-advances the plant with the wall clock × F, commands or not.
+advances the plant with the wall clock × F, commands or not, from the first command set on
+(until then the robot rests on its brakes).
 
 Events are JSON-able dicts passed to ``emit``: every motor on/off of a drive with its cause
 (``command``, ``watchdog``, ``error``) and, for an off, the time since the drive's last
@@ -74,9 +75,9 @@ class PlantHub:
         self.drop_connections: Callable[[], None] | None = None  # set by the socketcand server
         self.cycles = 0
         self.t0 = clock()
-        self._sim_start: float | None = None
+        self._sim_start: float | None = None  # free-running: wall time of plant time 0
         self._first_set: float | None = None  # lock-step: arrival of the first command set
-        self._periods = 0  # lock-step: periods the plant advanced  # wall time the free-running plant started
+        self._periods = 0  # lock-step: periods the plant advanced
 
     def add_bus(self, bus: "HubDriveBus") -> None:
         self.buses.append(bus)
@@ -137,8 +138,10 @@ class PlantHub:
             self.check(now)
 
     def _free_run(self, now: float) -> None:
+        if self.cycles == 0:
+            return  # the brakes hold the robot until the loop first commands every drive
         if self._sim_start is None:
-            self._sim_start = now
+            self._sim_start = now - self.plant.time / self.factor
         target = (now - self._sim_start) * self.factor
         if target - self.plant.time > 0.1 * self.factor:  # the process was stopped: do not replay the gap
             self.plant.time = target - self.period

@@ -36,6 +36,8 @@ def test_puma560_over_socketcand_tracks_its_trajectory(tmp_path, hil_sim):
     # the joints followed the trajectory: measured max 0.005-0.07 rad, RMS 0.001-0.012 rad
     # (the larger values when the machine is busy: skipped periods jump the reference ahead)
     tracking = summary["tracking_error_rad"]
+    print(f"socketcand tracking: max {tracking['max_all']:.4f} rad, rms {tracking['rms_all']:.4f} rad, "
+          f"overruns {summary['timing']['overruns']}/{summary['timing']['ticks']}")
     assert tracking["max_all"] < 0.15 and tracking["rms_all"] < 0.03, tracking
     moved = np.ptp(telemetry["q"], axis=0)
     assert np.all(moved[:3] > np.radians(20)), moved  # it did move along the waypoints
@@ -50,6 +52,8 @@ def test_three_joints_over_slcan_track_their_trajectory(tmp_path, hil_sim):
     assert code == 0, err[-3000:]
     check_complete(summary, telemetry, sim_exit)
     tracking = summary["tracking_error_rad"]
+    print(f"slcan tracking: max {tracking['max_all']:.4f} rad, rms {tracking['rms_all']:.4f} rad, "
+          f"overruns {summary['timing']['overruns']}/{summary['timing']['ticks']}")
     assert tracking["max_all"] < 0.15 and tracking["rms_all"] < 0.03, tracking
     # the shoulder's drive is mounted reversed with an offset: the loop still sees the joint, which
     # moved from 0 towards +20° and -10°, while the drive reported -(q - 0.5)
