@@ -13,7 +13,10 @@ reproducible.
 What differs from the direct simulator is what differs on real hardware: the state read at
 tick k+1 is the drives' reply to tick k's commands (measured before the plant advanced: one
 period older), quantised by the codec. Drives: ids 1…n per device, Katz firmware with ranges
-from the robot's limits (:func:`hil_sim.can_rig.sim_layout`).
+from the robot's limits (:func:`hil_sim.can_rig.sim_layout`). ``[sim]`` ``encoder_counts`` and
+``velocity_noise`` apply to the direct simulator only (here the codec quantises). The direct
+simulator stays the default: this path costs ~0.4 ms per PUMA tick (python-can's virtual bus
+deep-copies every frame) against ~0.08 ms.
 """
 from __future__ import annotations
 

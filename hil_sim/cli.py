@@ -70,7 +70,9 @@ def plan(path: Path):
         key = tuple(str(raw.get(k)) for k in ("interface", "channel", "host", "port"))
         bus = buses.get(key)
         if bus is None:
-            bus = buses[key] = BusPlan(raw, str(raw.get("channel", f"can{len(buses)}")))
+            channel = str(raw.get("channel", f"can{len(buses)}"))
+            names = ENV_TEMPLATE.findall(channel)  # a pty named by a variable: call the bus by it
+            bus = buses[key] = BusPlan(raw, names[0][0] if names else channel)
         bus.master_id = read_master_id(d)
         bus.layout += zip(read_mit_joints(d, [model.joint_names[i] for i in indices]), indices)
     if not buses:
