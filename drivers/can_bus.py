@@ -19,37 +19,15 @@ and port share one bus: the budget counts their joints together.
 """
 from __future__ import annotations
 
-import os
-import re
 from dataclasses import dataclass, field
 
 import can
 
 from rtctl.busload import DEFAULT_LIMIT, BusLoad, bus_load, check_bus_load, format_budget
-from rtctl.tomltable import Table
+from rtctl.tomltable import Table, expand_env
 
-ENV_TEMPLATE = re.compile(r"\$\{([A-Za-z_][A-Za-z0-9_]*)(?::-([^}]*))?\}")
 DEFAULT_BITRATE = 1_000_000
 BUDGET_KEY = "can_bus_budget"  # in DeviceContext.shared
-
-
-def expand_env(t: Table, key: str, value: str, environ=os.environ):
-    """``value`` with ``${VAR}`` / ``${VAR:-default}`` replaced from ``environ``; an integer
-    literal obtained by expansion becomes an int. ConfigError for an unset variable without default."""
-
-    def sub(m):
-        name, default = m.group(1), m.group(2)
-        if name in environ:
-            return environ[name]
-        if default is not None:
-            return default
-        raise t.error(key, f"the environment variable {name} to be set (e.g. from hil-sim's JSON line), "
-                           f"or a default: ${{{name}:-…}}")
-
-    expanded = ENV_TEMPLATE.sub(sub, value)
-    if expanded != value and re.fullmatch(r"[+-]?\d+", expanded.strip()):
-        return int(expanded)
-    return expanded
 
 
 @dataclass(frozen=True)

@@ -59,8 +59,14 @@ from rtctl.hal import JointGroup, Lifecycle, Status
 log = structlog.get_logger("rtctl.can")
 
 
+EXIT_ATTEMPTS = 3  # a lost (or corrupted) answer to exit motor mode must not leave a motor on
+
+
 class MitCanJointGroup(JointGroup):
     """The MIT drives of one CAN bus."""
+
+    # the ``bus`` options reader, for code that reaches this class through the driver registry
+    read_bus_options = staticmethod(read_bus_options)
 
     def __init__(self, name: str, joints, bus, *, master_id: int = mit.DEFAULT_MASTER_ID, period: float = 0.001,
                  reply_deadline: float = 0.6, stale_limit: int = 3, drive_timeout: float = 0.02,
@@ -176,7 +182,13 @@ class MitCanJointGroup(JointGroup):
     def _on_deactivate(self) -> None:
         if self.bus is None:
             self._open()  # one attempt: the drives must hear exit motor mode if the link allows
-        self._exchange(Special.EXIT_MOTOR_MODE, "exit motor mode")
+        for attempt in range(EXIT_ATTEMPTS):  # exit is idempotent: repeat until every drive confirms
+            try:
+                self._exchange(Special.EXIT_MOTOR_MODE, "exit motor mode")
+                return
+            except HardwareError:
+                if attempt == EXIT_ATTEMPTS - 1 or self.bus is None:
+                    raise
 
     def _on_close(self) -> None:
         self._close_bus()

@@ -25,18 +25,21 @@ import uuid
 import can
 import numpy as np
 
-from drivers.can_bus import BusOptions
-from drivers.can_joints import MitCanJointGroup
 from hil_sim.can_rig import emulated_drives, sim_layout
 from hil_sim.embedded import SimPlantHub
 from hil_sim.mit_drive import MitDriveBus, pump
+from rtctl.hal import load_driver
+from rtctl.tomltable import Table
+
+# The real driver, found by name like the daemon finds it (hil_sim does not import drivers).
+MitCanJointGroup = load_driver("mit_can")
 
 
 class SimCanJointGroup(MitCanJointGroup):
     def __init__(self, name, joints, indices, hub: SimPlantHub):
         channel = f"rtctl-sim-{name}-{uuid.uuid4().hex}"
-        bus = BusOptions({"interface": "virtual", "channel": channel}, 0, True, ("virtual", channel, None, None),
-                         f"virtual:{name}")
+        bus = MitCanJointGroup.read_bus_options(
+            Table({"bus": {"interface": "virtual", "channel": channel}}, "<embedded simulator>", name))
         # everything is answered inside send: no wait for replies
         super().__init__(name, joints, bus, period=hub.period, reply_deadline=0.0, exchange_timeout=0.0)
         self.hub, self.idx = hub, np.asarray(indices, dtype=np.int64)

@@ -29,15 +29,15 @@ import sys
 import threading
 from pathlib import Path
 
-from drivers.can_bus import ENV_TEMPLATE
 from drivers.protocols.mit_layout import read_master_id, read_mit_joints
 from hil_sim.can_rig import emulated_drives, sim_layout
 from hil_sim.embedded import SimPlantHub
 from hil_sim.lockstep import HubDriveBus, PlantHub, ScriptedFault
 from rtctl.config import joint_indices
 from rtctl.errors import RtctlError
+from rtctl.timing.rt import RtSettings, apply_rt
 from rtctl.model import load_robot
-from rtctl.tomltable import Table, load_toml
+from rtctl.tomltable import ENV_TEMPLATE, Table, load_toml
 
 
 def emit(event: dict) -> None:
@@ -174,6 +174,9 @@ def main(argv=None) -> int:
     p.add_argument("--fault", action="append", default=[], metavar="SPEC",
                    help="silent:ID | corrupt:ID:RATE | error:ID:CODE | drop, ID as N or BUS/N, optional @CYCLES")
     p.add_argument("--no-ack", action="store_true", help="slcan: do not acknowledge transmits (z/Z)")
+    p.add_argument("--rt-priority", type=int, default=0, metavar="N",
+                   help="run the drives at SCHED_FIFO priority N (1–99; below the loop's) with mlockall and "
+                        "1 ns timer slack, where permitted (each knob is reported on stderr); 0: leave alone")
     args = p.parse_args(argv)
     if args.realtime_factor < 0:
         p.error("--realtime-factor must be ≥ 0")
@@ -184,6 +187,9 @@ def main(argv=None) -> int:
     except (RtctlError, ValueError) as e:
         print(f"hil-sim: {e}", file=sys.stderr)
         return 2
+    if args.rt_priority:
+        for report in apply_rt(RtSettings(priority=args.rt_priority, mlockall=True, timer_slack_ns=1)):
+            print(f"hil-sim: rt {report.knob}: {report.status} {report.detail}", file=sys.stderr)
     transport = args.transport or plans[0].raw.get("interface")
     if transport == "slcan":
         serve_slcan(args, hub, plans, buses)

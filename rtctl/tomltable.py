@@ -7,6 +7,8 @@ refused instead of silently ignored (a typo in ``kp`` must not run the robot wit
 from __future__ import annotations
 
 import math
+import os
+import re
 import tomllib
 from pathlib import Path
 
@@ -15,6 +17,7 @@ import numpy as np
 from rtctl.errors import ConfigError
 
 _MISSING = object()
+ENV_TEMPLATE = re.compile(r"\$\{([A-Za-z_][A-Za-z0-9_]*)(?::-([^}]*))?\}")  # ${VAR} or ${VAR:-default}
 
 
 class _Default(Exception):
@@ -145,3 +148,22 @@ class Table:
         unknown = sorted(set(self.data) - self._seen)
         if unknown:
             raise self.error(unknown[0], f"unknown key (known here: {', '.join(sorted(self._seen)) or 'none'})")
+
+
+def expand_env(t: Table, key: str, value: str, environ=os.environ):
+    """``value`` with ``${VAR}`` / ``${VAR:-default}`` replaced from ``environ``; an integer
+    literal obtained by expansion becomes an int. ConfigError for an unset variable without default."""
+
+    def sub(m):
+        name, default = m.group(1), m.group(2)
+        if name in environ:
+            return environ[name]
+        if default is not None:
+            return default
+        raise t.error(key, f"the environment variable {name} to be set (e.g. from hil-sim's JSON line), "
+                           f"or a default: ${{{name}:-…}}")
+
+    expanded = ENV_TEMPLATE.sub(sub, value)
+    if expanded != value and re.fullmatch(r"[+-]?\d+", expanded.strip()):
+        return int(expanded)
+    return expanded

@@ -12,7 +12,12 @@ from hil_helpers import Daemon, read, run, variant, wait_for
 
 pytestmark = pytest.mark.hil
 
-TOLERANT = {"drive_timeout": 0.1}  # see test_hil_tracking: no fault from a machine stall
+# no fault from a machine stall (this shared VM stalls a process for 5–20 ms now and then):
+# the watchdogs here are wider than the 3 ticks / 20 ms the fault tests check
+# no fault from a machine stall (this shared VM stalls a process for 5–20 ms now and then) where
+# the test is about something else; the stale-data tests keep the shipped 3 ticks
+TOLERANT = {"drive_timeout": 0.1}
+STALL_TOLERANT = {**TOLERANT, "stale_limit": 10, "stale_ticks": 10}
 
 
 def check_complete(summary, telemetry, sim_exit):
@@ -103,11 +108,11 @@ def test_a_dropped_connection_is_reopened_and_stopped_safely_within_2_s(tmp_path
 
 
 def test_corrupted_replies_are_counted_and_ignored(tmp_path, hil_sim):
-    config = variant(tmp_path, "puma560_hil_socketcand.toml", **TOLERANT)
+    config = variant(tmp_path, "puma560_hil_socketcand.toml", **STALL_TOLERANT)
     sim = hil_sim(config, "--port", 0, "--drive-timeout-ms", 100, "--fault", "corrupt:2:0.02")
     code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=3.0)
     sim_exit = sim.stop()
-    assert code == 0, err[-3000:]
+    assert code == 0, (summary["stop_reason"], summary["safety"]["faults"][:3], err[-1000:])
     check_complete(summary, telemetry, sim_exit)
     corrupted = {d["drive"]: d["counters"]["corrupted"] for d in sim_exit["drives"]}
     assert corrupted[2] > 10 and sum(corrupted.values()) == corrupted[2]

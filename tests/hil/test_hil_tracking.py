@@ -11,7 +11,9 @@ pytestmark = pytest.mark.hil
 # On this shared 2-core machine the loop has no real-time priority and stalls of 20+ ms happen;
 # the nominal runs give the drives (and the driver's gap check) a 100 ms watchdog so that such a
 # stall is not a fault. The 20 ms watchdog itself is exercised in test_hil_faults.
-TOLERANT = {"drive_timeout": 0.1}
+# no fault from a machine stall (this shared VM stalls a process for 5–20 ms now and then):
+# the watchdogs here are wider than the 3 ticks / 20 ms the fault tests check
+TOLERANT = {"drive_timeout": 0.1, "stale_limit": 10, "stale_ticks": 10}
 
 
 def check_complete(summary, telemetry, sim_exit):
@@ -26,7 +28,7 @@ def test_puma560_over_socketcand_tracks_its_trajectory(tmp_path, hil_sim):
     assert sim.info["transport"] == "socketcand" and sim.info["channels"] == ["can0"]
     code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=4.0)
     sim_exit = sim.stop()
-    assert code == 0, err[-3000:]
+    assert code == 0, (summary["stop_reason"], summary["timing"]["overruns"])
     check_complete(summary, telemetry, sim_exit)
     arm = summary["devices"]["arm"]["counters"]
     assert arm["malformed_replies"] == 0 and arm["bus_errors"] == 0
@@ -49,7 +51,7 @@ def test_three_joints_over_slcan_track_their_trajectory(tmp_path, hil_sim):
     assert sim.info["transport"] == "slcan" and sim.info["env"]["HIL_SIM_TTY"] == sim.info["tty"]
     code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=4.0)
     sim_exit = sim.stop()
-    assert code == 0, err[-3000:]
+    assert code == 0, (summary["stop_reason"], summary["timing"]["overruns"])
     check_complete(summary, telemetry, sim_exit)
     tracking = summary["tracking_error_rad"]
     print(f"slcan tracking: max {tracking['max_all']:.4f} rad, rms {tracking['rms_all']:.4f} rad, "
