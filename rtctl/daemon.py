@@ -151,8 +151,16 @@ class Daemon:
         scratch = JointCommand(n)
         for c in self.rt.controllers:
             c.update(0.0, self.rt.state, self.rt.ref, scratch)
-        spare = SafetyStage.from_model(self.model, self.cfg.safety, device_joints=self.rt.device_joints)
-        spare.check(0.0, 0, self.rt.state, np.zeros(len(self.rt.devices), dtype=np.int64), scratch, True)
+        # the safety stage's normal and fault paths (hold with gravity, damped stop): the first
+        # real fault must not stall the loop longer than the drives' 20 ms watchdog
+        spare = SafetyStage.from_model(self.model, self.cfg.safety, device_joints=self.rt.device_joints,
+                                       gravity=self.safety.gravity)
+        spare.log_events = False
+        statuses = np.zeros(len(self.rt.devices), dtype=np.int64)
+        spare.check(0.0, 0, self.rt.state, statuses, scratch, True)
+        spare.check(0.0, 1, self.rt.state, statuses, scratch, False, "warm-up")  # → hold
+        spare.estop("warm-up")
+        spare.check(0.0, 2, self.rt.state, statuses, scratch, True)  # → damped stop
         for dev in self.rt.devices:
             warm_up = getattr(dev, "warm_up", None)
             if warm_up is not None:

@@ -84,6 +84,7 @@ class SafetyStage:
         self.gravity = gravity
         self.guard = guard
         self.on_event = on_event
+        self.log_events = True  # False for a stage that only warms the compiled paths up
 
         self._ok_statuses = np.zeros(len(groups), dtype=np.int64)
         self.faults: list[Fault] = []  # latched, oldest first
@@ -304,7 +305,8 @@ class SafetyStage:
             self.events.append(event)
         else:
             self.events_dropped += 1
-        log.warning(name, **{a: b for a, b in event.items() if a != "event"})
+        if self.log_events:
+            log.warning(name, **{a: b for a, b in event.items() if a != "event"})
         if self.on_event is not None:
             try:
                 self.on_event(event)
