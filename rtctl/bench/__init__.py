@@ -1,2 +1,19 @@
 """Benchmarks that `rtctl bench …` runs on the user's machine: each returns a JSON-able dict and has a
 ``format_table``; timing goals live here, never in tests."""
+
+import time
+
+import numpy as np
+
+
+def median_us(fn, repeats: int, batch: int) -> float:
+    """Median µs per call of ``fn`` over batches of ``batch`` calls, after a warm-up batch."""
+    for _ in range(batch):
+        fn()
+    samples = []
+    for _ in range(max(1, repeats // batch)):
+        t0 = time.perf_counter_ns()
+        for _ in range(batch):
+            fn()
+        samples.append((time.perf_counter_ns() - t0) / batch / 1e3)
+    return float(np.median(samples))

@@ -21,6 +21,7 @@ import time
 import numpy as np
 from numba import njit
 
+from rtctl.bench import median_us
 from rtctl.control.base import Reference
 from rtctl.control.opcount import count_slotine_li_tick
 from rtctl.control.slotine_li import LAWS, SlotineLi
@@ -58,15 +59,7 @@ def random_chain(n: int, seed: int = 0) -> Model:
 
 
 def _median_us(fn, repeats: int) -> float:
-    for _ in range(BATCH):
-        fn()
-    samples = []
-    for _ in range(max(1, repeats // BATCH)):
-        t0 = time.perf_counter_ns()
-        for _ in range(BATCH):
-            fn()
-        samples.append((time.perf_counter_ns() - t0) / BATCH / 1e3)
-    return float(np.median(samples))
+    return median_us(fn, repeats, BATCH)
 
 
 @njit(cache=True)

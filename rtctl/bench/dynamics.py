@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 from numba import njit
 
+from rtctl.bench import median_us
 from rtctl.model import dynamics as dyn
 from rtctl.model import load_robot
 from rtctl.model.coriolis import coriolis_kernel
@@ -33,16 +34,7 @@ BATCH = 25
 
 
 def _median_us(fn, repeats: int) -> float:
-    """Median µs per call over batches of BATCH calls, after a warm-up batch."""
-    for _ in range(BATCH):
-        fn()
-    samples = []
-    for _ in range(max(1, repeats // BATCH)):
-        t0 = time.perf_counter_ns()
-        for _ in range(BATCH):
-            fn()
-        samples.append((time.perf_counter_ns() - t0) / BATCH / 1e3)
-    return float(np.median(samples))
+    return median_us(fn, repeats, BATCH)
 
 
 # Compiled callers: `count` kernel calls inside numba, the per-call cost without dispatch.
