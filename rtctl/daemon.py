@@ -28,7 +28,7 @@ import structlog
 from rtctl import logs
 from rtctl.config import load_config
 from rtctl.control_socket import ControlServer
-from rtctl.errors import HardwareError, RtctlError
+from rtctl.errors import ConfigError, HardwareError, RtctlError
 from rtctl.hal import JointCommand, Status
 from rtctl.model.dynamics import gravity as gravity_of
 from rtctl.runtime import build
@@ -54,8 +54,6 @@ def run(args) -> int:
 
 
 def _with_realtime_factor(cfg, factor: float):
-    from rtctl.errors import ConfigError
-
     if factor < 0 or (factor != 1.0 and cfg.sim is None):
         raise ConfigError("<command line>", "--realtime-factor", "≥ 0, and ≠ 1 only with simulated devices")
     return replace(cfg, loop=replace(cfg.loop, realtime_factor=factor))
@@ -264,7 +262,7 @@ class Daemon:
         return {"ok": True, "robot": self.model.name, "t": self.ticker.sim_time_s, "tick": self.ticker.tick,
                 "q": s.position.tolist(), "qd": s.velocity.tolist(), "q_des": self.rt.ref.q.tolist(),
                 "verdict": Verdict(self.tick.verdict).name, "faults": [f.reason for f in self.safety.faults],
-                "overruns": self.ticker.stats.overruns if hasattr(self.ticker, "stats") else None,
+                "overruns": self.ticker.stats.overruns,
                 "stopping": self.stop_reason}
 
     # -- telemetry and summary -----------------------------------------------------------

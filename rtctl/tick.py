@@ -23,7 +23,7 @@ class Tick:
         self.safety = safety
         self.recorder = recorder
         self.trajectory = None  # set by the daemon; replaced by `move`
-        self.direct = runtime.direct  # one device, all joints: no gather/scatter
+        self.direct = runtime.direct  # one device, all joints: its arrays are the robot's
         n = runtime.model.nq
         self.statuses = np.zeros(len(runtime.devices), dtype=np.int64)
         self.write_statuses = np.zeros(len(runtime.devices), dtype=np.int64)  # carried to the next check
@@ -42,13 +42,8 @@ class Tick:
         for i, dev in enumerate(rt.devices):
             self.statuses[i] = max(dev.read(t), self.write_statuses[i])  # a failed write counts too
             self.write_statuses[i] = Status.OK
-            if self.direct:
-                break
-            idx, s = rt.device_joints[i], dev.state
-            np.put(state.position, idx, s.position)
-            np.put(state.velocity, idx, s.velocity)
-            np.put(state.effort, idx, s.effort)
-            np.put(state.fresh, idx, s.fresh)
+            if not self.direct:
+                self._gather(i, dev)
         state.stamp = t
         ticker.mark(READ)
 
@@ -69,16 +64,8 @@ class Tick:
         ticker.mark(SAFETY)
 
         for i, dev in enumerate(rt.devices):
-            if self.direct:
-                self.write_statuses[i] = dev.write(t)
-                break
-            idx, c = rt.device_joints[i], dev.command
-            c.mode = command.mode
-            np.take(command.tau_ff, idx, out=c.tau_ff)
-            np.take(command.q_des, idx, out=c.q_des)
-            np.take(command.qd_des, idx, out=c.qd_des)
-            np.take(command.kp, idx, out=c.kp)
-            np.take(command.kd, idx, out=c.kd)
+            if not self.direct:
+                self._scatter(i, dev)
             self.write_statuses[i] = dev.write(t)  # seen by the safety stage next tick
         ticker.mark(WRITE)
 
@@ -90,6 +77,24 @@ class Tick:
             self.recorder.record()
         ticker.mark(RECORD)
         return self.verdict
+
+    def _gather(self, i: int, dev) -> None:
+        """Device i's state into the robot's arrays."""
+        idx, s, state = self.rt.device_joints[i], dev.state, self.rt.state
+        np.put(state.position, idx, s.position)
+        np.put(state.velocity, idx, s.velocity)
+        np.put(state.effort, idx, s.effort)
+        np.put(state.fresh, idx, s.fresh)
+
+    def _scatter(self, i: int, dev) -> None:
+        """The robot's command for device i's joints into the device."""
+        idx, c, command = self.rt.device_joints[i], dev.command, self.rt.command
+        c.mode = command.mode
+        np.take(command.tau_ff, idx, out=c.tau_ff)
+        np.take(command.q_des, idx, out=c.q_des)
+        np.take(command.qd_des, idx, out=c.qd_des)
+        np.take(command.kp, idx, out=c.kp)
+        np.take(command.kd, idx, out=c.kd)
 
     def _track(self) -> None:
         e, state, ref = self._e, self.rt.state, self.rt.ref
