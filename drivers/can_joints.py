@@ -94,6 +94,8 @@ class MitCanJointGroup(JointGroup):
         self._offset = np.array([j.offset for j in joints])
         self._effort_scale = self._dir * np.array([j.model.torque_constant for j in joints])
         self._replies = np.zeros((n, mit.REPLY_COLUMNS))
+        self._reply_position, self._reply_velocity, self._reply_effort, self._reply_error = (
+            self._replies[:, c] for c in (REPLY_POSITION, REPLY_VELOCITY, REPLY_EFFORT, REPLY_ERROR))
         self._got = np.zeros(n, dtype=bool)  # a reply since the last read
         self._cycle = np.zeros(n, dtype=bool)  # a reply in the current collection
         self._stale = np.zeros(n, dtype=np.int64)
@@ -111,6 +113,7 @@ class MitCanJointGroup(JointGroup):
         self.counters = {"cycles": 0, "missing_replies": 0, "malformed_replies": 0, "foreign_frames": 0,
                          "error_frames": 0, "bus_errors": 0, "reconnects": 0}
         self.events: list[dict] = []  # rare: bus lost / back, drives assumed off, stale fault
+        self._last_event: str | None = None  # so a fault state is reported once, not every tick
 
     # -- configuration -------------------------------------------------------------------
     @classmethod
@@ -205,14 +208,14 @@ class MitCanJointGroup(JointGroup):
     def _read(self, t: float) -> Status:
         self._t_loop = t
         got, s, tmp, stale = self._got, self.state, self._tmp, self._stale
-        np.multiply(self._replies[:, REPLY_POSITION], self._dir, out=tmp)
+        np.multiply(self._reply_position, self._dir, out=tmp)
         tmp += self._offset
         np.copyto(s.position, tmp, where=got)
-        np.multiply(self._replies[:, REPLY_VELOCITY], self._dir, out=tmp)
+        np.multiply(self._reply_velocity, self._dir, out=tmp)
         np.copyto(s.velocity, tmp, where=got)
-        np.multiply(self._replies[:, REPLY_EFFORT], self._effort_scale, out=tmp)
+        np.multiply(self._reply_effort, self._effort_scale, out=tmp)
         np.copyto(s.effort, tmp, where=got)
-        np.copyto(s.fault, self._replies[:, REPLY_ERROR], where=got, casting="unsafe")
+        np.copyto(s.fault, self._reply_error, where=got, casting="unsafe")
         np.copyto(s.fresh, got)
         stale += 1
         np.copyto(stale, self._zeros_i, where=got)
@@ -223,12 +226,15 @@ class MitCanJointGroup(JointGroup):
         if self._drives_off is not None:
             return Status.DEACTIVATE
         if stale.max() >= self.stale_limit:
-            self._event_once("stale", f"no reply from drive(s) {self._stale_ids()} for {self.stale_limit} ticks",
+            if self._last_event != "stale":  # build the message once per episode, not every tick
+                self._report("stale", f"no reply from drive(s) {self._stale_ids()} for {self.stale_limit} ticks",
                              missing_since=float(np.nanmin(self._missing_since)))
             return Status.ERROR
         if s.fault.any():
-            self._event_once("drive_error", f"drive error codes {dict(zip(self.joint_names, s.fault.tolist()))}")
+            if self._last_event != "drive_error":
+                self._report("drive_error", f"drive error codes {dict(zip(self.joint_names, s.fault.tolist()))}")
             return Status.ERROR
+        self._last_event = None  # healthy again: the next fault state is a new episode
         return Status.OK
 
     def _write(self, t: float) -> Status:
@@ -387,19 +393,20 @@ class MitCanJointGroup(JointGroup):
         """The clock the drives' watchdogs run on."""
         return time.monotonic()
 
-    def _stale_ids(self) -> list[int]:
-        return [j.drive_id for j, k in zip(self.joints, self._stale) if k >= self.stale_limit]
+    def _stale_ids(self) -> str:
+        return ", ".join(f"{j.drive_id:#x}" for j, k in zip(self.joints, self._stale) if k >= self.stale_limit)
 
     def _event(self, kind: str, reason: str, **fields) -> None:
         event = {"event": kind, "reason": reason, "t": self._t_loop, "clock": self._clock(), **fields}
+        self._last_event = kind
         if len(self.events) < 100:
             self.events.append(event)
         log.warning(kind, device=self.name, **{k: v for k, v in event.items() if k != "event"})
 
-    def _event_once(self, kind: str, reason: str, **fields) -> None:
-        if not self.events or self.events[-1]["event"] != kind:
-            self.last_error = reason
-            self._event(kind, reason, **fields)
+    def _report(self, kind: str, reason: str, **fields) -> None:
+        """A fault state's first tick: remember it as the last error and log it."""
+        self.last_error = reason
+        self._event(kind, reason, **fields)
 
     def diagnostics(self) -> dict:
         d = super().diagnostics()

@@ -116,7 +116,7 @@ def test_a_missing_reply_is_stale_and_the_stale_limit_is_an_error(rig):
     # the reply of the silencing tick's commands is missing at the next read: stale 1, 2, 3 → ERROR
     assert statuses == [Status.OK, Status.OK, Status.OK, Status.ERROR]
     assert list(r.state.fresh) == [True, False]
-    assert r.counters["missing_replies"] == 4 and "0x2" not in (r.last_error or "")
+    assert r.counters["missing_replies"] == 4 and "drive(s) 0x2 " in r.last_error  # only the silent one
     r.drive_list[1].faults.silent = False
     r.tick()
     assert r.tick()[0] == Status.OK and np.all(r.state.fresh)
@@ -192,3 +192,24 @@ def test_enter_motor_mode_must_be_answered_by_every_drive(rig):
     with pytest.raises(HardwareError, match="0x1.*enter motor mode"):
         r.activate()
     assert not r.drive_list[1].enabled  # the one that answered was turned off again
+
+
+def test_a_long_stale_episode_is_logged_once_even_with_a_full_event_list(rig):
+    from structlog.testing import capture_logs
+
+    r = rig()
+    r.activate()
+    r.tick()
+    r.events.extend({"event": "bus_back"} for _ in range(100))  # the kept-events list is full
+    with capture_logs() as logs:
+        r.drive_list[1].faults.silent = True
+        for _ in range(20):
+            r.tick()
+        r.drive_list[1].faults.silent = False
+        for _ in range(3):
+            r.tick()
+        r.drive_list[1].faults.silent = True
+        for _ in range(20):
+            r.tick()
+    stale = [e for e in logs if e["event"] == "stale"]
+    assert len(stale) == 2  # one per episode, not one per tick
