@@ -38,11 +38,6 @@ class BusOptions:
     identity: tuple  # (interface, channel, host, port): equal for devices on one bus
     label: str
 
-    @property
-    def interface(self) -> str:
-        return self.kwargs["interface"]
-
-
 def read_bus_options(t: Table) -> BusOptions:
     """The ``bus`` sub-table of the device table ``t``, validated (nothing is opened)."""
     bt = t.table("bus")

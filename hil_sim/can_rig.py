@@ -8,29 +8,9 @@ import math
 
 from drivers.protocols.mit import DRIVE_MODELS
 from drivers.protocols.mit_layout import MitJoint
-from hil_sim.mit_drive import MitDrive
+from hil_sim.mit_drive import MappedJointPort, MitDrive
 
 KATZ = DRIVE_MODELS["katz"]
-
-
-class MappedJointPort:
-    """Joint ``index`` of an array-backed plant as a drive mounted on it sees it:
-    drive position = direction · (q − offset), drive torque → direction · τ on the joint."""
-
-    __slots__ = ("q", "qd", "tau", "index", "direction", "offset")
-
-    def __init__(self, q, qd, tau, index: int, direction: float = 1.0, offset: float = 0.0):
-        self.q, self.qd, self.tau, self.index = q, qd, tau, index
-        self.direction, self.offset = direction, offset
-
-    def get_position(self) -> float:
-        return self.direction * (float(self.q[self.index]) - self.offset)
-
-    def get_velocity(self) -> float:
-        return self.direction * float(self.qd[self.index])
-
-    def set_torque(self, tau: float) -> None:
-        self.tau[self.index] = self.direction * tau
 
 
 def emulated_drives(joints, indices, plant, *, timeout_s: float = 0.020, master_id: int = 0) -> list[MitDrive]:

@@ -257,23 +257,24 @@ class MitDriveBus:
         return deadline is not None and deadline <= now
 
 
-class ArrayJointPort:
-    """Joint ``index`` of a multi-joint plant that keeps its state and torque input in arrays
-    (e.g. ``ArrayJointPort(plant.q, plant.qd, plant.tau_cmd, i)``)."""
+class MappedJointPort:
+    """Joint ``index`` of an array-backed plant as a drive mounted on it sees it:
+    drive position = direction · (q − offset), drive torque → direction · τ on the joint."""
 
-    __slots__ = ("q", "qd", "tau", "index")
+    __slots__ = ("q", "qd", "tau", "index", "direction", "offset")
 
-    def __init__(self, q, qd, tau, index: int):
+    def __init__(self, q, qd, tau, index: int, direction: float = 1.0, offset: float = 0.0):
         self.q, self.qd, self.tau, self.index = q, qd, tau, index
+        self.direction, self.offset = direction, offset
 
     def get_position(self) -> float:
-        return float(self.q[self.index])
+        return self.direction * (float(self.q[self.index]) - self.offset)
 
     def get_velocity(self) -> float:
-        return float(self.qd[self.index])
+        return self.direction * float(self.qd[self.index])
 
     def set_torque(self, tau: float) -> None:
-        self.tau[self.index] = tau
+        self.tau[self.index] = self.direction * tau
 
 
 # -- stand-in plant -------------------------------------------------------------------------

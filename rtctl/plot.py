@@ -17,8 +17,8 @@ import numpy as np
 
 from rtctl.errors import RtctlError
 from rtctl.telemetry import read
+from rtctl.timing import PHASES
 
-PHASES = ("read", "update", "safety", "write", "record")
 ESTIMATE_PREFIXES = ("params_hat", "pi_hat")
 
 

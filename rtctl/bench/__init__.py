@@ -17,3 +17,10 @@ def median_us(fn, repeats: int, batch: int) -> float:
             fn()
         samples.append((time.perf_counter_ns() - t0) / batch / 1e3)
     return float(np.median(samples))
+
+
+def percentiles_us(ns) -> dict:
+    """p50 / p99 / p99.9 / max of durations in ns, as µs (the benches' common row)."""
+    us = np.asarray(ns) / 1e3
+    return {"p50_us": float(np.percentile(us, 50)), "p99_us": float(np.percentile(us, 99)),
+            "p99_9_us": float(np.percentile(us, 99.9)), "max_us": float(us.max())}

@@ -13,13 +13,9 @@ import time
 
 import numpy as np
 
+from rtctl.bench import percentiles_us
 from rtctl.control_socket import ControlServer
 from rtctl.control_socket.framing import encode
-
-
-def _percentiles(ns) -> dict:
-    us = np.asarray(ns) / 1e3
-    return {"p50_us": float(np.percentile(us, 50)), "p99_us": float(np.percentile(us, 99)), "max_us": float(us.max())}
 
 
 def _time_polls(server: ControlServer, n: int) -> dict:
@@ -28,7 +24,7 @@ def _time_polls(server: ControlServer, n: int) -> dict:
         a = time.perf_counter_ns()
         server.poll()
         ns[k] = time.perf_counter_ns() - a
-    return _percentiles(ns)
+    return percentiles_us(ns)
 
 
 def bench_control_socket(polls: int = 20000, requests: int = 500) -> dict:
@@ -51,7 +47,7 @@ def bench_control_socket(polls: int = 20000, requests: int = 500) -> dict:
             client.close()
         finally:
             server.close()
-    return {"idle": idle, "idle_client": connected, "status_request": _percentiles(ns)}
+    return {"idle": idle, "idle_client": connected, "status_request": percentiles_us(ns)}
 
 
 def format_table(result: dict) -> str:

@@ -11,6 +11,7 @@ import time
 
 import numpy as np
 
+from rtctl.bench import percentiles_us
 from rtctl.hal.joints import CommandMode, JointCommand, JointState
 from rtctl.safety import GuardVerdict, SafetyStage
 
@@ -20,12 +21,6 @@ class _PassGuard:
 
     def check(self, t, state, command):
         return GuardVerdict.PASS
-
-
-def _percentiles(ns) -> dict:
-    us = np.asarray(ns) / 1e3
-    return {"p50_us": float(np.percentile(us, 50)), "p99_us": float(np.percentile(us, 99)),
-            "p99_9_us": float(np.percentile(us, 99.9)), "max_us": float(us.max())}
 
 
 def _time_checks(stage, state, command, statuses, ticks, controller_ok=True) -> dict:
@@ -38,7 +33,7 @@ def _time_checks(stage, state, command, statuses, ticks, controller_ok=True) -> 
         a = clock()
         check(k * 1e-3, k, state, statuses, command, controller_ok)
         ns[k] = clock() - a
-    return _percentiles(ns)
+    return percentiles_us(ns)
 
 
 def bench_safety(n: int = 6, ticks: int = 20000) -> dict:

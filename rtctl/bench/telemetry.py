@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 
+from rtctl.bench import percentiles_us
 from rtctl.telemetry import Recorder
 from rtctl.telemetry.schema import normalise_schema, row_dtype
 from rtctl.telemetry.writer import pack_batch
@@ -23,12 +24,6 @@ def six_dof_schema(n_params: int = 60) -> dict:
     vec = ((6,), np.float64)
     return {"t": ((), np.float64), "q": vec, "qd": vec, "q_des": vec, "qd_des": vec, "tau": vec,
             "phase_ns": ((5,), np.int64), "s": vec, "params_hat": ((n_params,), np.float64)}
-
-
-def _percentiles(ns: np.ndarray) -> dict:
-    us = ns / 1e3
-    return {"p50_us": float(np.percentile(us, 50)), "p99_us": float(np.percentile(us, 99)),
-            "p99_9_us": float(np.percentile(us, 99.9)), "max_us": float(us.max())}
 
 
 def _paced_ticks(directory: str, rate: float, seconds: float, block_rows: int) -> dict:
@@ -58,8 +53,8 @@ def _paced_ticks(directory: str, rate: float, seconds: float, block_rows: int) -
     rec.close()
     return {"rows": n, "dropped": rec.dropped_rows, "columns": len(schema),
             "row_bytes": row_dtype(normalise_schema(schema)).itemsize,
-            "copy": _percentiles(copy_ns), "commit": _percentiles(commit_ns),
-            "record_total": _percentiles(copy_ns + commit_ns)}
+            "copy": percentiles_us(copy_ns), "commit": percentiles_us(commit_ns),
+            "record_total": percentiles_us(copy_ns + commit_ns)}
 
 
 def _hot_loop(directory: str, rows: int) -> dict:
@@ -96,8 +91,8 @@ def _pack_block(directory: str, block_rows: int, repeats: int) -> dict:
             pack_ns[k], write_ns[k] = b - a, c - b
     finally:
         os.close(fd)
-    return {"block_rows": block_rows, "batch_bytes": len(data), "pack": _percentiles(pack_ns),
-            "write": _percentiles(write_ns), "pack_and_write": _percentiles(pack_ns + write_ns)}
+    return {"block_rows": block_rows, "batch_bytes": len(data), "pack": percentiles_us(pack_ns),
+            "write": percentiles_us(write_ns), "pack_and_write": percentiles_us(pack_ns + write_ns)}
 
 
 def _throughput(directory: str, rows: int, block_rows: int) -> dict:

@@ -11,13 +11,8 @@ import time
 
 import numpy as np
 
+from rtctl.bench import percentiles_us
 from rtctl.trajectory import JointLimits, retarget, through_waypoints
-
-
-def _percentiles(ns) -> dict:
-    us = np.asarray(ns) / 1e3
-    return {"p50_us": float(np.percentile(us, 50)), "p99_us": float(np.percentile(us, 99)),
-            "max_us": float(us.max())}
 
 
 def bench_trajectory(n: int = 6, samples: int = 20000, plans: int = 50, seed: int = 0) -> dict:
@@ -46,8 +41,8 @@ def bench_trajectory(n: int = 6, samples: int = 20000, plans: int = 50, seed: in
         a = clock()
         retarget(t, *state, wp[:1], lim)
         plan_ns["retarget mid-motion"].append(clock() - a)
-    return {"joints": n, "sample": _percentiles(ns), "segments": len(traj.knots) - 1,
-            "plans": plans, "planning": {k: _percentiles(v) for k, v in plan_ns.items()}}
+    return {"joints": n, "sample": percentiles_us(ns), "segments": len(traj.knots) - 1,
+            "plans": plans, "planning": {k: percentiles_us(v) for k, v in plan_ns.items()}}
 
 
 def format_table(result: dict) -> str:

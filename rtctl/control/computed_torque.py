@@ -10,13 +10,12 @@ One compiled call per tick (:func:`computed_torque_kernel`), no allocation.
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
 from rtctl.control.base import Controller
 from rtctl.control.gains import per_joint
+from rtctl.control.motor import motor_feedforward_add
 from rtctl.model.dynamics import Data, model_arrays
 from rtctl.model.rnea import rnea_kernel
 
@@ -28,8 +27,7 @@ def computed_torque_kernel(joint, geom, params, gravity, X, body, q, qd, q_d, qd
     for i in range(n):
         a[i] = qdd_d[i] - kd[i] * (qd[i] - qd_d[i]) - kp[i] * (q[i] - q_d[i])
     rnea_kernel(joint, geom, params, gravity, X, body, q, qd, a, tau)
-    for i in range(n):
-        tau[i] += armature[i] * a[i] + viscous[i] * qd[i] + coulomb[i] * math.tanh(qd[i] / coulomb_velocity)
+    motor_feedforward_add(qd, a, armature, viscous, coulomb, coulomb_velocity, tau)
 
 
 class ComputedTorque(Controller):

@@ -26,10 +26,9 @@ and optionally kept physically consistent by :func:`project_consistent`.
 """
 from __future__ import annotations
 
-import math
-
 from numba import njit
 
+from rtctl.control.motor import motor_feedforward_add
 from rtctl.control.consistency import project_consistent
 from rtctl.model.data import SUB, update_joints
 from rtctl.model.spatial_kernels import crf_mul_add, crm_mul_add, dot6, inertia_mul, xforce_T_add, xmotion, \
@@ -174,15 +173,6 @@ def euler_step(params, params_dot, h):
     for i in range(params.shape[0]):
         for k in range(10):
             params[i, k] += h * params_dot[i, k]
-
-
-@njit(cache=True, inline="always")
-def motor_feedforward_add(qd, qddr, armature, viscous, coulomb, coulomb_velocity, tau):
-    """τ += armature q̈_r + viscous q̇ + coulomb tanh(q̇ / v_c): the known drive train.
-    Armature adds a constant diagonal to H (Ḣ unchanged, so Ḣ − 2C stays skew) and friction
-    is cancelled, so the adaptive law's Lyapunov argument is unchanged."""
-    for i in range(tau.shape[0]):
-        tau[i] += armature[i] * qddr[i] + viscous[i] * qd[i] + coulomb[i] * math.tanh(qd[i] / coulomb_velocity)
 
 
 # Packed arguments of the controller's tick (each array handed to numba from Python costs

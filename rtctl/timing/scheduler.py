@@ -129,7 +129,7 @@ class Ticker:
 
     def due(self, divisor: int) -> bool:
         """Whether a controller with this rate divisor runs in the current tick (see :func:`due`)."""
-        return self.tick // divisor != self.prev_tick // divisor
+        return due(self.prev_tick, self.tick, divisor)
 
     @property
     def sim_time_s(self) -> float:

@@ -7,7 +7,7 @@ import pytest
 
 from drivers.protocols import mit
 from drivers.protocols.mit import KATZ, Special
-from hil_sim.mit_drive import ArrayJointPort, DriveFaults, InertiaJoint, MitDrive, MitDriveBus, free_running
+from hil_sim.mit_drive import MappedJointPort, DriveFaults, InertiaJoint, MitDrive, MitDriveBus, free_running
 
 
 class Port:
@@ -173,7 +173,7 @@ def test_closed_loop_step_response_matches_the_second_order_solution():
 
 def test_array_port_drives_one_joint_of_a_multi_joint_plant():
     q, qd, tau = np.array([0.0, 0.5]), np.array([0.0, -0.2]), np.zeros(2)
-    d = enabled_drive(ArrayJointPort(q, qd, tau, 1))
+    d = enabled_drive(MappedJointPort(q, qd, tau, 1))
     d.receive(mit.pack_command(KATZ, 0.0, 0.0, 0.0, 5.0, 0.0), 0.001)
     c = d.command  # v_des and t_ff decode to −65/4095 and −18/4095, not 0
     assert tau[0] == 0.0 and tau[1] == pytest.approx(c.kd * (c.v + 0.2) + c.t, rel=1e-12)

@@ -2,7 +2,7 @@
 random chains with prismatic joints, from tests/model/conftest.py) and closed-loop helpers."""
 from __future__ import annotations
 
-import importlib.util
+import sys
 from pathlib import Path
 
 import pytest
@@ -12,11 +12,8 @@ from rtctl.model import load_robot
 ROOT = Path(__file__).resolve().parents[2]
 ROBOTS = ROOT / "configs" / "robots"
 
-_spec = importlib.util.spec_from_file_location("model_test_robots", ROOT / "tests" / "model" / "conftest.py")
-_model_fixtures = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(_model_fixtures)
-make_random_chain = _model_fixtures.make_random_chain
-random_params = _model_fixtures.random_params
+sys.path.insert(0, str(ROOT / "tests" / "model"))
+from random_robots import make_random_chain  # noqa: E402
 
 
 @pytest.fixture(scope="session")

@@ -9,7 +9,7 @@ from hypothesis import given, settings, strategies as st
 from rtctl.control.consistency import MAX_CORRECTIONS, TOLERANCE, project_link, pseudo_inertia, \
     quadratic_form_gradient, symmetric_eigen4
 
-from conftest import random_params
+from random_robots import random_params
 
 
 def pseudo(p):

@@ -10,7 +10,7 @@ from drivers.can_bus import BusOptions
 from drivers.can_joints import MitCanJointGroup
 from drivers.protocols.mit import DRIVE_MODELS, KATZ
 from drivers.protocols.mit_layout import MitJoint
-from hil_sim.can_rig import MappedJointPort
+from hil_sim.mit_drive import MappedJointPort
 from hil_sim.mit_drive import MitDrive, MitDriveBus, pump
 from rtctl.errors import HardwareError
 from rtctl.hal import CommandMode, Status

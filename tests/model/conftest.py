@@ -7,9 +7,7 @@ Fixtures:
   locked at 0 and merged into the hand, so it is the 7-joint arm; flange = ``panda_hand``;
   the UR5's flange = ``tool0``, ROS-Industrial's flange frame);
 * ``ur5_urdf``, ``panda_urdf`` — paths of the original URDF files;
-* ``random_chain(n, seed, prismatic=True)`` — a factory of generic serial chains: random joint
-  axes and tree placements, some prismatic joints, physically consistent inertias, random
-  flange and tool;
+* ``random_chain(n, seed, prismatic=True)`` — :func:`random_robots.make_random_chain`;
 * ``pin`` — the pinocchio module; ``pin_ur5``, ``pin_panda`` — (pin.Model, pin.Data) read by
   Pinocchio from the original files; ``pin_twin(model)`` — (pin.Model, pin.Data) built from
   ``model.to_urdf()``; ``pin_q(pin_model, q)`` — our joint vector in Pinocchio's
@@ -23,9 +21,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rtctl.model import PRISMATIC, REVOLUTE, Model, load_robot
-from rtctl.model.dh import inertial_params
-from rtctl.model.rotations import homogeneous, rot_axis
+from rtctl.model import Model, load_robot
+
+from random_robots import make_random_chain  # noqa: E402  (tests/model is on sys.path)
 
 ROOT = Path(__file__).resolve().parents[2]
 ROBOTS = ROOT / "configs" / "robots"
@@ -41,43 +39,6 @@ def example_robot_data(relative: str) -> Path:
     if not path.exists():
         pytest.skip(f"example-robot-data has no {relative}")
     return path
-
-
-def random_rotation(rng) -> np.ndarray:
-    axis = rng.normal(size=3)
-    return rot_axis(axis / np.linalg.norm(axis), rng.uniform(-np.pi, np.pi))
-
-
-def random_params(rng) -> np.ndarray:
-    """Physically consistent parameters: m > 0 and principal moments from positive second
-    moments of the mass distribution (so the triangle inequality holds)."""
-    m = rng.uniform(0.5, 5.0)
-    second = rng.uniform(0.002, 0.05, size=3) * m
-    principal = np.array([second[1] + second[2], second[0] + second[2], second[0] + second[1]])
-    R = random_rotation(rng)
-    return inertial_params(m, rng.uniform(-0.3, 0.3, size=3), R @ np.diag(principal) @ R.T)
-
-
-def make_random_chain(n: int, seed: int, prismatic: bool = True) -> Model:
-    rng = np.random.default_rng(seed)
-    types = np.full(n, REVOLUTE, dtype=np.int64)
-    if prismatic and n > 1:
-        types[rng.choice(n, size=max(1, n // 4), replace=False)] = PRISMATIC
-    axes = rng.normal(size=(n, 3))
-    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
-    return Model(
-        name=f"random{n}_{seed}",
-        joint_names=tuple(f"j{i + 1}" for i in range(n)),
-        joint_types=types,
-        parent=np.arange(n, dtype=np.int64) - 1,
-        axis=axes,
-        R_tree=np.array([random_rotation(rng) for _ in range(n)]),
-        p_tree=rng.uniform(-0.5, 0.5, size=(n, 3)),
-        params=np.array([random_params(rng) for _ in range(n)]),
-        q_min=np.full(n, -2.0), q_max=np.full(n, 2.0),
-        flange=homogeneous(random_rotation(rng), rng.uniform(-0.2, 0.2, 3)),
-        tool=homogeneous(random_rotation(rng), rng.uniform(-0.2, 0.2, 3)),
-    )
 
 
 @pytest.fixture(scope="session")
