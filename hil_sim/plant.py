@@ -14,13 +14,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from rtctl.compiled import kernel
 from rtctl.model.dynamics import Data, model_arrays
 from rtctl.model.forward_dynamics import forward_dynamics_kernel
 
 
-@njit(cache=True)
+@kernel
 def plant_step(joint, geom, params, gravity, X, body, Ic, H, q, qd, qdd, tau_cmd, tau_max, tau_applied,
                armature, viscous, coulomb, coulomb_velocity, tau, dt, substeps):
     n = q.shape[0]

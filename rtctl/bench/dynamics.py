@@ -57,9 +57,9 @@ def _crba_loop(count, joint, geom, params, X, body, Ic, q, H):
 
 
 @njit(cache=True)
-def _coriolis_loop(count, joint, geom, params, X, body, I6, B6, W, q, qd, kind, C):
+def _coriolis_loop(count, joint, geom, params, gravity, X, body, Ic, I6, B6, W, q, qd, zero, kind, C):
     for _ in range(count):
-        coriolis_kernel(joint, geom, params, X, body, I6, B6, W, q, qd, kind, C)
+        coriolis_kernel(joint, geom, params, gravity, X, body, Ic, I6, B6, W, q, qd, zero, kind, C)
 
 
 @njit(cache=True)
@@ -102,11 +102,11 @@ def bench_dynamics(robot_path=DEFAULT_ROBOT, repeats: int = 5000) -> dict:
         "coriolis_matrix christoffel": (
             lambda: dyn.coriolis_matrix(model, q, qd, "christoffel"),
             lambda: dyn.coriolis_matrix_into(a, d, q, qd, dyn.CHRISTOFFEL, M),
-            (_coriolis_loop, (a.joint, a.geom, a.params, d.X, d.body, d.I6, d.B6, d.M6, q, qd, dyn.CHRISTOFFEL, M))),
+            (_coriolis_loop, (*a, d.X, d.body, d.Ic, d.I6, d.B6, d.M6, q, qd, d.zero, dyn.CHRISTOFFEL, M))),
         "coriolis_matrix cstar": (
             lambda: dyn.coriolis_matrix(model, q, qd, "cstar"),
             lambda: dyn.coriolis_matrix_into(a, d, q, qd, dyn.CSTAR, M),
-            (_coriolis_loop, (a.joint, a.geom, a.params, d.X, d.body, d.I6, d.B6, d.M6, q, qd, dyn.CSTAR, M))),
+            (_coriolis_loop, (*a, d.X, d.body, d.Ic, d.I6, d.B6, d.M6, q, qd, d.zero, dyn.CSTAR, M))),
         "forward_dynamics": (
             lambda: dyn.forward_dynamics(model, q, qd, tau),
             lambda: dyn.forward_dynamics_into(a, d, q, qd, tau, armature, out),

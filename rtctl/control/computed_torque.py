@@ -11,8 +11,8 @@ One compiled call per tick (:func:`computed_torque_kernel`), no allocation.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from rtctl.compiled import kernel
 from rtctl.control.base import Controller
 from rtctl.control.gains import per_joint
 from rtctl.control.motor import motor_feedforward_add
@@ -20,7 +20,7 @@ from rtctl.model.dynamics import Data, model_arrays
 from rtctl.model.rnea import rnea_kernel
 
 
-@njit(cache=True)
+@kernel
 def computed_torque_kernel(joint, geom, params, gravity, X, body, q, qd, q_d, qd_d, qdd_d, kp, kd,
                            armature, viscous, coulomb, coulomb_velocity, a, tau):
     n = q.shape[0]

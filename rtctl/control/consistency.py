@@ -31,14 +31,15 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from rtctl.compiled import kernel, leaf
+
 
 MAX_CORRECTIONS = 16
 TOLERANCE = 1e-9
 RELAXATION = 1.9
 
 
-@njit(cache=True, inline="always")
+@leaf
 def pseudo_inertia(p, out):
     """out (4, 4) = P(π)."""
     half_trace = 0.5 * (p[4] + p[6] + p[9])
@@ -51,7 +52,7 @@ def pseudo_inertia(p, out):
     out[3, 3] = p[0]
 
 
-@njit(cache=True, inline="always")
+@leaf
 def quadratic_form_gradient(x, out):
     """out (10,) = a_x with xᵀ P(π) x = a_x·π."""
     x0, x1, x2, x3 = x[0], x[1], x[2], x[3]
@@ -65,7 +66,7 @@ def quadratic_form_gradient(x, out):
     out[9] = 0.5 * (x0 * x0 + x1 * x1 - x2 * x2)
 
 
-@njit(cache=True)
+@kernel
 def symmetric_eigen4(A, V):
     """Cyclic Jacobi on the symmetric 4×4 ``A`` (destroyed): eigenvalues on its diagonal,
     eigenvectors in the columns of ``V``."""
@@ -101,7 +102,7 @@ def symmetric_eigen4(A, V):
                     A[p, k], A[q, k] = c * apk - s * aqk, s * apk + c * aqk
 
 
-@njit(cache=True)
+@kernel
 def project_link(p, gamma, A, V, a):
     """Move one link's π̂ (``p``, in place) towards C by relaxed P⁻¹-metric half-space
     projections (module docstring); A, V (4, 4) and a (10,) scratch. Returns the number of
@@ -128,7 +129,7 @@ def project_link(p, gamma, A, V, a):
     return MAX_CORRECTIONS
 
 
-@njit(cache=True)
+@kernel
 def project_consistent(params, gamma, A, V, a):
     """:func:`project_link` for every link; returns the total number of corrections."""
     total = 0

@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from rtctl.compiled import leaf
 
 
-@njit(cache=True, inline="always")
+@leaf
 def motor_feedforward_add(qd, qddr, armature, viscous, coulomb, coulomb_velocity, tau):
     """τ += armature q̈_r + viscous q̇ + coulomb tanh(q̇ / v_c): the known drive train.
     Armature adds a constant diagonal to H (Ḣ unchanged, so Ḣ − 2C stays skew) and friction

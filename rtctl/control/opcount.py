@@ -19,7 +19,8 @@ import numpy as np
 from numba.core.registry import CPUDispatcher
 
 from rtctl.control.slotine_li import LAWS
-from rtctl.control.slotine_li_kernels import BODY_SLOTS, PHI_VECTORS, TMP_VECTORS, slotine_li_kernel
+from rtctl.control.slotine_li_kernels import PHI_VECTORS, slotine_li_kernel
+from rtctl.model.data import BODY_SLOTS
 from rtctl.model.dynamics import model_arrays
 
 
@@ -129,7 +130,7 @@ def count_slotine_li_tick(model, law: str, state, params, gamma, lam, kd, adapt:
     dead_zone = Counted(0.0 if adapt else np.inf)
     Counted.tally = Tally()
     mirror(slotine_li_kernel)(LAWS[law], arrays.joint, counted(arrays.geom), counted(params), counted(arrays.gravity),
-                              zeros(n, 4, 3), zeros(n, BODY_SLOTS, 6), zeros(TMP_VECTORS, 6), zeros(PHI_VECTORS, 10),
+                              zeros(n, 4, 3), zeros(n, BODY_SLOTS, 6), zeros(PHI_VECTORS, 10),
                               q, qd, q_d, qd_d, qdd_d, counted(lam), counted(kd), counted(gamma), dead_zone, qdr, qddr,
                               s, tau, params_dot)
     return Counted.tally, _floats(tau), _floats(params_dot)

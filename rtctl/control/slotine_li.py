@@ -35,10 +35,10 @@ from pathlib import Path
 import numpy as np
 
 from rtctl.control.base import Controller
-from rtctl.control.consistency import project_consistent
 from rtctl.control.gains import per_joint
-from rtctl.control.slotine_li_kernels import ARMATURE, BODY_SLOTS, CLASSIC, COULOMB, COULOMB_VELOCITY, CSTAR, \
+from rtctl.control.slotine_li_kernels import ARMATURE, CLASSIC, COULOMB, COULOMB_VELOCITY, CSTAR, \
     DEAD_ZONE, KD, LAM, LAW, MOTOR, PROJECT, STEP, TAU, VISCOUS, WORK_ROWS, slotine_li_update_kernel
+from rtctl.model.data import BODY_SLOTS
 from rtctl.model.dynamics import model_arrays
 
 LAWS = {"cstar": CSTAR, "classic": CLASSIC}
@@ -174,12 +174,6 @@ class SlotineLi(Controller):
         m = self.arrays
         slotine_li_update_kernel(settings, m.joint, m.geom, self.params_hat, m.gravity, self.gains, self.gamma, *work,
                                  q, qd, q_d, qd_d, qdd_d, signals, params_dot)
-
-    def project(self) -> int:
-        """Apply the consistency projection to the current estimates now; returns the number of
-        half-space corrections made."""
-        work = self._work[2]
-        return project_consistent(self.params_hat, self.gamma, work[9:13, :4], work[13:17, :4], work[8])
 
     def reset(self, state=None) -> None:
         """Restore π̂(0); the next update starts a fresh integration."""

@@ -1,5 +1,5 @@
 """The compiled algorithms' inputs: packed model arrays and the Data workspace (Pinocchio's
-model/data split), plus the joint pass every recursion starts with.
+model/data split).
 
 Every array handed to a numba kernel from Python costs ~0.15 µs to unbox, so the model and the
 workspace are packed into a few arrays:
@@ -13,7 +13,9 @@ workspace are packed into a few arrays:
 
 ``Data`` (scratch, one per user; overwritten by every call)
     ``X``    (n, 4, 3)  — ⁱX_λ(q) as (E, r): rows 0–2 E, row 3 r (see spatial_kernels)
-    ``body`` (n, 5, 6)  — per body: S (motion subspace), v, a, f, and a free slot (TMP)
+    ``body`` (n, 9, 6)  — per body: S (motion subspace), v, u (reference velocity), w
+                          (acceleration), f, and 4 scratch vectors from TMP on
+                          (:mod:`rtctl.model.recursions` says who writes what)
     ``Ic``   (n, 10)    — composite inertias (CRBA)
     ``H``    (n, n)     — mass matrix (forward dynamics factorises it in place)
     ``bias`` (n,), ``zero`` (n,) — C q̇ + G; a zero vector
@@ -24,12 +26,11 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from rtctl.model.robot import Model
-from rtctl.model.spatial_kernels import joint_transform, motion_subspace, xmotion, zero_vector
 
-SUB, VEL, ACC, FRC, TMP = 0, 1, 2, 3, 4  # slots of Data.body
+SUB, VEL, REF, ACC, FRC, TMP = 0, 1, 2, 3, 4, 5  # slots of Data.body; TMP .. TMP + 3 are scratch
+BODY_SLOTS = TMP + 4
 
 
 class ModelArrays(NamedTuple):
@@ -62,7 +63,7 @@ class Data:
     def __init__(self, model: Model):
         n = model.nq
         self.X = np.zeros((n, 4, 3))
-        self.body = np.zeros((n, 5, 6))
+        self.body = np.zeros((n, BODY_SLOTS, 6))
         self.Ic = np.zeros((n, 10))
         self.H = np.zeros((n, n))
         self.bias = np.zeros(n)
@@ -70,27 +71,3 @@ class Data:
         self.I6 = np.zeros((n, 6, 6))
         self.B6 = np.zeros((n, 6, 6))
         self.M6 = np.zeros((2, 6, 6))
-
-
-@njit(cache=True, inline="always")
-def update_joints(joint, geom, q, X, body):
-    """Joint pass: ⁱX_λ(q_i) into X and S_i into body[:, SUB] (book Table 5.1, jcalc)."""
-    for i in range(joint.shape[0]):
-        g = geom[i]
-        joint_transform(joint[i, 0], g[0], g[1:4], g[4], q[i], X[i, :3], X[i, 3])
-        motion_subspace(joint[i, 0], g[0], body[i, SUB])
-
-
-@njit(cache=True, inline="always")
-def update_velocities(joint, X, body, qd):
-    """v_i = X_i v_λ(i) + S_i q̇_i into body[:, VEL] (book eq. 5.7)."""
-    for i in range(joint.shape[0]):
-        v = body[i, VEL]
-        parent = joint[i, 1]
-        if parent < 0:
-            zero_vector(v)
-        else:
-            xmotion(X[i, :3], X[i, 3], body[parent, VEL], v)
-        for k in range(6):
-            v[k] += body[i, SUB, k] * qd[i]
-

@@ -90,8 +90,8 @@ def forward_dynamics_into(arrays: ModelArrays, data: Data, q, qd, tau, armature,
 
 def coriolis_matrix_into(arrays: ModelArrays, data: Data, q, qd, kind: int, C) -> None:
     """C(q, q̇) into the (n, n) array ``C``; ``kind`` is CHRISTOFFEL or CSTAR."""
-    coriolis_kernel(arrays.joint, arrays.geom, arrays.params, data.X, data.body, data.I6, data.B6,
-                    data.M6, q, qd, kind, C)
+    coriolis_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body, data.Ic, data.I6,
+                    data.B6, data.M6, q, qd, data.zero, kind, C)
 
 
 # --- convenience API ------------------------------------------------------------------------
@@ -160,8 +160,8 @@ def mass_matrix_dot(model: Model, q, qd) -> np.ndarray:
     """Ḣ(q, q̇) = dH/dt along q̇, from the time derivatives of the composite inertias."""
     arrays, data, q, qd = _setup(model, q, qd)
     Hd = np.zeros((model.nq, model.nq))
-    mass_matrix_dot_kernel(arrays.joint, arrays.geom, arrays.params, data.X, data.body, data.I6, data.B6,
-                           data.M6, q, qd, Hd)
+    mass_matrix_dot_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body, data.Ic,
+                           data.I6, data.B6, data.M6, q, qd, data.zero, Hd)
     return Hd
 
 

@@ -10,15 +10,14 @@ more 6×6 work per body.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from rtctl.compiled import kernel
 from rtctl.model.crba import crba_passes
-from rtctl.model.data import update_joints
+from rtctl.model.recursions import update_joints
 from rtctl.model.rnea import rnea_passes
-from rtctl.model.spatial_kernels import zero_vector
 
 
-@njit(cache=True)
+@kernel
 def cholesky_solve(H, b):
     """Overwrite H's lower triangle with L (H = L Lᵀ) and b with H⁻¹ b."""
     n = H.shape[0]
@@ -44,11 +43,12 @@ def cholesky_solve(H, b):
         b[i] = s / H[i, i]
 
 
-@njit(cache=True)
+@kernel
 def forward_dynamics_kernel(joint, geom, params, gravity, X, body, Ic, H, q, qd, tau, armature, qdd):
     """q̈ into ``qdd``; X, body, Ic and H are Data scratch (H ends up holding the factor)."""
     update_joints(joint, geom, q, X, body)
-    zero_vector(qdd)
+    for i in range(qdd.shape[0]):
+        qdd[i] = 0.0
     rnea_passes(joint, params, gravity, X, body, qd, qdd, qdd)  # reads q̈ = 0, then writes C q̇ + G
     crba_passes(joint, params, X, body, Ic, H)
     for i in range(qdd.shape[0]):

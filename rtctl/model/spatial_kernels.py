@@ -1,181 +1,149 @@
 """Compiled spatial-algebra kernels: the products of :mod:`rtctl.model.spatial` on 3-vectors.
 
-Each function writes into ``out`` and allocates nothing; each loads its inputs into locals
-before storing, so ``out`` may alias an input. Transforms are kept as Featherstone's pair
-``X = (E, r)`` (book §2.8, Table 2.8): ``E`` the 3×3 rotation from parent to child
-coordinates, ``r`` the child origin in parent coordinates; inertias as the 10 parameters
+Operands are addressed, not sliced: a 6-vector is ``V[k, s]`` of an (n, slots, 6) array (the
+workspace's ``body``: link k, slot s), a transform ``X[i]`` of an (n, 4, 3) array, inertial
+parameters ``P[k]`` of an (n, 10) array. Every function writes its result into ``V`` (or
+``P``) and allocates nothing; each loads its inputs into locals before storing, so the result
+may overwrite an input. Transforms are kept as Featherstone's pair ``X = (E, r)`` (book §2.8,
+Table 2.8), rows 0–2 of X[i] holding ``E``, the 3×3 rotation from parent to child coordinates,
+row 3 ``r``, the child origin in parent coordinates; inertias as the 10 parameters
 ``p = (m, h, J)`` with ``h = m c`` (Pinocchio's order). With ω, v the angular and linear parts:
 
 * ``X m = [E ω; E (v − r × ω)]``                      (motion, parent → child)
 * ``Xᵀ f = [Eᵀ n + r × Eᵀ f; Eᵀ f]``                  (force, child → parent)
 * ``I m = [J ω + h × v; m v − h × ω]``
 * ``v × m = [ω × m_ω; ω × m_v + v × m_ω]``,  ``v ×* f = [ω × n + v × f; ω × f]``
+
+They are the leaves of the passes in :mod:`rtctl.model.recursions`: each is compiled once and
+LLVM inlines it into every pass that calls it. Two things would cost more: numba's own
+inlining (``inline="always"``) re-types the whole body at every call site (several times the
+compile time, for the same machine code), and an array view handed to a compiled function is
+reference-counted (an atomic add and subtract per call that survive LLVM's inlining: the
+recursions ran 2–3× slower that way) — hence indices instead of views.
 """
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from rtctl.compiled import leaf
 from rtctl.model.robot import REVOLUTE
 
 
-
-@njit(cache=True, inline="always")
-def joint_transform(jtype, axis, R_tree, p_tree, q, E, r):
-    """ⁱX_λ(q) = X_J(q) X_T as (E, r): body placement R = R_tree Rot(axis, q) (revolute) or
-    R_tree with origin p_tree + R_tree axis q (prismatic); E = Rᵀ (book Table 5.1: X_i = X_J X_T)."""
-    x, y, z = axis[0], axis[1], axis[2]
-    if jtype == REVOLUTE:
-        c, s = np.cos(q), np.sin(q)
-        t = 1.0 - c
-        J00, J01, J02 = t * x * x + c, t * x * y - s * z, t * x * z + s * y
-        J10, J11, J12 = t * x * y + s * z, t * y * y + c, t * y * z - s * x
-        J20, J21, J22 = t * x * z - s * y, t * y * z + s * x, t * z * z + c
-        for a in range(3):  # E[:, a] = (R_tree J)[a, :]
-            R0, R1, R2 = R_tree[a, 0], R_tree[a, 1], R_tree[a, 2]
-            E[0, a] = R0 * J00 + R1 * J10 + R2 * J20
-            E[1, a] = R0 * J01 + R1 * J11 + R2 * J21
-            E[2, a] = R0 * J02 + R1 * J12 + R2 * J22
-            r[a] = p_tree[a]
-    else:
-        for a in range(3):
-            for b in range(3):
-                E[b, a] = R_tree[a, b]
-            r[a] = p_tree[a] + (R_tree[a, 0] * x + R_tree[a, 1] * y + R_tree[a, 2] * z) * q
-
-
-@njit(cache=True, inline="always")
-def motion_subspace(jtype, axis, S):
-    """S_i in body coordinates: [axis; 0] for a revolute joint, [0; axis] for a prismatic one."""
-    for k in range(6):
-        S[k] = 0.0
-    off = 0 if jtype == REVOLUTE else 3
-    for k in range(3):
-        S[off + k] = axis[k]
-
-
-@njit(cache=True, inline="always")
-def xmotion(E, r, m, out):
-    """out = X m."""
-    w0, w1, w2, v0, v1, v2 = m[0], m[1], m[2], m[3], m[4], m[5]
-    u0 = v0 - (r[1] * w2 - r[2] * w1)
-    u1 = v1 - (r[2] * w0 - r[0] * w2)
-    u2 = v2 - (r[0] * w1 - r[1] * w0)
+@leaf
+def xmotion(X, i, V, src, s, dst, d):
+    """V[dst, d] = X_i V[src, s]."""
+    w0, w1, w2, v0, v1, v2 = V[src, s, 0], V[src, s, 1], V[src, s, 2], V[src, s, 3], V[src, s, 4], V[src, s, 5]
+    r0, r1, r2 = X[i, 3, 0], X[i, 3, 1], X[i, 3, 2]
+    u0 = v0 - (r1 * w2 - r2 * w1)
+    u1 = v1 - (r2 * w0 - r0 * w2)
+    u2 = v2 - (r0 * w1 - r1 * w0)
     for a in range(3):
-        out[a] = E[a, 0] * w0 + E[a, 1] * w1 + E[a, 2] * w2
-        out[3 + a] = E[a, 0] * u0 + E[a, 1] * u1 + E[a, 2] * u2
+        V[dst, d, a] = X[i, a, 0] * w0 + X[i, a, 1] * w1 + X[i, a, 2] * w2
+        V[dst, d, 3 + a] = X[i, a, 0] * u0 + X[i, a, 1] * u1 + X[i, a, 2] * u2
 
 
-@njit(cache=True, inline="always")
-def xforce_T(E, r, f, out):
-    """out = Xᵀ f (a child's force expressed in its parent's coordinates)."""
-    n0, n1, n2, f0, f1, f2 = f[0], f[1], f[2], f[3], f[4], f[5]
-    g0 = E[0, 0] * f0 + E[1, 0] * f1 + E[2, 0] * f2
-    g1 = E[0, 1] * f0 + E[1, 1] * f1 + E[2, 1] * f2
-    g2 = E[0, 2] * f0 + E[1, 2] * f1 + E[2, 2] * f2
-    out[0] = E[0, 0] * n0 + E[1, 0] * n1 + E[2, 0] * n2 + r[1] * g2 - r[2] * g1
-    out[1] = E[0, 1] * n0 + E[1, 1] * n1 + E[2, 1] * n2 + r[2] * g0 - r[0] * g2
-    out[2] = E[0, 2] * n0 + E[1, 2] * n1 + E[2, 2] * n2 + r[0] * g1 - r[1] * g0
-    out[3], out[4], out[5] = g0, g1, g2
+@leaf
+def xforce_T(X, i, V, src, s, dst, d, add):
+    """V[dst, d] = X_iᵀ V[src, s], or += when ``add`` (a child's force in its parent's coordinates)."""
+    n0, n1, n2, f0, f1, f2 = V[src, s, 0], V[src, s, 1], V[src, s, 2], V[src, s, 3], V[src, s, 4], V[src, s, 5]
+    r0, r1, r2 = X[i, 3, 0], X[i, 3, 1], X[i, 3, 2]
+    g0 = X[i, 0, 0] * f0 + X[i, 1, 0] * f1 + X[i, 2, 0] * f2
+    g1 = X[i, 0, 1] * f0 + X[i, 1, 1] * f1 + X[i, 2, 1] * f2
+    g2 = X[i, 0, 2] * f0 + X[i, 1, 2] * f1 + X[i, 2, 2] * f2
+    m0 = X[i, 0, 0] * n0 + X[i, 1, 0] * n1 + X[i, 2, 0] * n2 + r1 * g2 - r2 * g1
+    m1 = X[i, 0, 1] * n0 + X[i, 1, 1] * n1 + X[i, 2, 1] * n2 + r2 * g0 - r0 * g2
+    m2 = X[i, 0, 2] * n0 + X[i, 1, 2] * n1 + X[i, 2, 2] * n2 + r0 * g1 - r1 * g0
+    if add:
+        m0, m1, m2 = m0 + V[dst, d, 0], m1 + V[dst, d, 1], m2 + V[dst, d, 2]
+        g0, g1, g2 = g0 + V[dst, d, 3], g1 + V[dst, d, 4], g2 + V[dst, d, 5]
+    V[dst, d, 0], V[dst, d, 1], V[dst, d, 2], V[dst, d, 3], V[dst, d, 4], V[dst, d, 5] = m0, m1, m2, g0, g1, g2
 
 
-@njit(cache=True, inline="always")
-def xforce_T_add(E, r, f, out):
-    """out += Xᵀ f."""
-    n0, n1, n2, f0, f1, f2 = f[0], f[1], f[2], f[3], f[4], f[5]
-    g0 = E[0, 0] * f0 + E[1, 0] * f1 + E[2, 0] * f2
-    g1 = E[0, 1] * f0 + E[1, 1] * f1 + E[2, 1] * f2
-    g2 = E[0, 2] * f0 + E[1, 2] * f1 + E[2, 2] * f2
-    out[0] += E[0, 0] * n0 + E[1, 0] * n1 + E[2, 0] * n2 + r[1] * g2 - r[2] * g1
-    out[1] += E[0, 1] * n0 + E[1, 1] * n1 + E[2, 1] * n2 + r[2] * g0 - r[0] * g2
-    out[2] += E[0, 2] * n0 + E[1, 2] * n1 + E[2, 2] * n2 + r[0] * g1 - r[1] * g0
-    out[3] += g0
-    out[4] += g1
-    out[5] += g2
+@leaf
+def crm_mul(V, k, a, b, scale, d, add):
+    """V[k, d] = scale · (V[k, a] × V[k, b]), or += when ``add`` (motion cross product)."""
+    w0, w1, w2, u0, u1, u2 = V[k, a, 0], V[k, a, 1], V[k, a, 2], V[k, a, 3], V[k, a, 4], V[k, a, 5]
+    a0, a1, a2, b0, b1, b2 = V[k, b, 0], V[k, b, 1], V[k, b, 2], V[k, b, 3], V[k, b, 4], V[k, b, 5]
+    c0 = scale * (w1 * a2 - w2 * a1)
+    c1 = scale * (w2 * a0 - w0 * a2)
+    c2 = scale * (w0 * a1 - w1 * a0)
+    c3 = scale * (w1 * b2 - w2 * b1 + u1 * a2 - u2 * a1)
+    c4 = scale * (w2 * b0 - w0 * b2 + u2 * a0 - u0 * a2)
+    c5 = scale * (w0 * b1 - w1 * b0 + u0 * a1 - u1 * a0)
+    if add:
+        c0, c1, c2 = c0 + V[k, d, 0], c1 + V[k, d, 1], c2 + V[k, d, 2]
+        c3, c4, c5 = c3 + V[k, d, 3], c4 + V[k, d, 4], c5 + V[k, d, 5]
+    V[k, d, 0], V[k, d, 1], V[k, d, 2], V[k, d, 3], V[k, d, 4], V[k, d, 5] = c0, c1, c2, c3, c4, c5
 
 
-@njit(cache=True, inline="always")
-def crm_mul_add(v, m, scale, out):
-    """out += scale · (v × m)."""
-    w0, w1, w2, u0, u1, u2 = v[0], v[1], v[2], v[3], v[4], v[5]
-    a0, a1, a2, b0, b1, b2 = m[0], m[1], m[2], m[3], m[4], m[5]
-    out[0] += scale * (w1 * a2 - w2 * a1)
-    out[1] += scale * (w2 * a0 - w0 * a2)
-    out[2] += scale * (w0 * a1 - w1 * a0)
-    out[3] += scale * (w1 * b2 - w2 * b1 + u1 * a2 - u2 * a1)
-    out[4] += scale * (w2 * b0 - w0 * b2 + u2 * a0 - u0 * a2)
-    out[5] += scale * (w0 * b1 - w1 * b0 + u0 * a1 - u1 * a0)
+@leaf
+def crf_mul_add(V, k, a, b, d):
+    """V[k, d] += V[k, a] ×* V[k, b] (force cross product: a motion, b a force)."""
+    w0, w1, w2, u0, u1, u2 = V[k, a, 0], V[k, a, 1], V[k, a, 2], V[k, a, 3], V[k, a, 4], V[k, a, 5]
+    n0, n1, n2, f0, f1, f2 = V[k, b, 0], V[k, b, 1], V[k, b, 2], V[k, b, 3], V[k, b, 4], V[k, b, 5]
+    V[k, d, 0] += w1 * n2 - w2 * n1 + u1 * f2 - u2 * f1
+    V[k, d, 1] += w2 * n0 - w0 * n2 + u2 * f0 - u0 * f2
+    V[k, d, 2] += w0 * n1 - w1 * n0 + u0 * f1 - u1 * f0
+    V[k, d, 3] += w1 * f2 - w2 * f1
+    V[k, d, 4] += w2 * f0 - w0 * f2
+    V[k, d, 5] += w0 * f1 - w1 * f0
 
 
-@njit(cache=True, inline="always")
-def crf_mul_add(v, f, out):
-    """out += v ×* f."""
-    w0, w1, w2, u0, u1, u2 = v[0], v[1], v[2], v[3], v[4], v[5]
-    n0, n1, n2, f0, f1, f2 = f[0], f[1], f[2], f[3], f[4], f[5]
-    out[0] += w1 * n2 - w2 * n1 + u1 * f2 - u2 * f1
-    out[1] += w2 * n0 - w0 * n2 + u2 * f0 - u0 * f2
-    out[2] += w0 * n1 - w1 * n0 + u0 * f1 - u1 * f0
-    out[3] += w1 * f2 - w2 * f1
-    out[4] += w2 * f0 - w0 * f2
-    out[5] += w0 * f1 - w1 * f0
+@leaf
+def inertia_mul(P, p, V, k, a, d):
+    """V[k, d] = I(P[p]) V[k, a]."""
+    w0, w1, w2, v0, v1, v2 = V[k, a, 0], V[k, a, 1], V[k, a, 2], V[k, a, 3], V[k, a, 4], V[k, a, 5]
+    mass, h0, h1, h2 = P[p, 0], P[p, 1], P[p, 2], P[p, 3]
+    J00, J01, J11, J02, J12, J22 = P[p, 4], P[p, 5], P[p, 6], P[p, 7], P[p, 8], P[p, 9]
+    V[k, d, 0] = J00 * w0 + J01 * w1 + J02 * w2 + h1 * v2 - h2 * v1
+    V[k, d, 1] = J01 * w0 + J11 * w1 + J12 * w2 + h2 * v0 - h0 * v2
+    V[k, d, 2] = J02 * w0 + J12 * w1 + J22 * w2 + h0 * v1 - h1 * v0
+    V[k, d, 3] = mass * v0 - (h1 * w2 - h2 * w1)
+    V[k, d, 4] = mass * v1 - (h2 * w0 - h0 * w2)
+    V[k, d, 5] = mass * v2 - (h0 * w1 - h1 * w0)
 
 
-@njit(cache=True, inline="always")
-def inertia_mul(p, m, out):
-    """out = I(p) m."""
-    w0, w1, w2, v0, v1, v2 = m[0], m[1], m[2], m[3], m[4], m[5]
-    mass, h0, h1, h2 = p[0], p[1], p[2], p[3]
-    out[0] = p[4] * w0 + p[5] * w1 + p[7] * w2 + h1 * v2 - h2 * v1
-    out[1] = p[5] * w0 + p[6] * w1 + p[8] * w2 + h2 * v0 - h0 * v2
-    out[2] = p[7] * w0 + p[8] * w1 + p[9] * w2 + h0 * v1 - h1 * v0
-    out[3] = mass * v0 - (h1 * w2 - h2 * w1)
-    out[4] = mass * v1 - (h2 * w0 - h0 * w2)
-    out[5] = mass * v2 - (h0 * w1 - h1 * w0)
-
-
-@njit(cache=True, inline="always")
-def inertia_to_parent_add(E, r, p, out):
-    """out += parameters of Xᵀ I(p) X: the inertia moved into the parent frame (book Table 2.8):
-    m' = m, h' = Eᵀh + m r, J' = EᵀJE + m(|r|² 1 − r rᵀ) + 2 (r·g) 1 − g rᵀ − r gᵀ, g = Eᵀh."""
-    m = p[0]
-    g0 = E[0, 0] * p[1] + E[1, 0] * p[2] + E[2, 0] * p[3]
-    g1 = E[0, 1] * p[1] + E[1, 1] * p[2] + E[2, 1] * p[3]
-    g2 = E[0, 2] * p[1] + E[1, 2] * p[2] + E[2, 2] * p[3]
-    r0, r1, r2 = r[0], r[1], r[2]
-    out[0] += m
-    out[1] += g0 + m * r0
-    out[2] += g1 + m * r1
-    out[3] += g2 + m * r2
+@leaf
+def inertia_to_parent_add(X, i, P, src, dst):
+    """P[dst] += parameters of X_iᵀ I(P[src]) X_i: the inertia moved into the parent frame (book
+    Table 2.8): m' = m, h' = Eᵀh + m r, J' = EᵀJE + m(|r|² 1 − r rᵀ) + 2 (r·g) 1 − g rᵀ − r gᵀ, g = Eᵀh."""
+    m, h0, h1, h2 = P[src, 0], P[src, 1], P[src, 2], P[src, 3]
+    J00, J01, J11, J02, J12, J22 = P[src, 4], P[src, 5], P[src, 6], P[src, 7], P[src, 8], P[src, 9]
+    r0, r1, r2 = X[i, 3, 0], X[i, 3, 1], X[i, 3, 2]
+    g0 = X[i, 0, 0] * h0 + X[i, 1, 0] * h1 + X[i, 2, 0] * h2
+    g1 = X[i, 0, 1] * h0 + X[i, 1, 1] * h1 + X[i, 2, 1] * h2
+    g2 = X[i, 0, 2] * h0 + X[i, 1, 2] * h1 + X[i, 2, 2] * h2
+    P[dst, 0] += m
+    P[dst, 1] += g0 + m * r0
+    P[dst, 2] += g1 + m * r1
+    P[dst, 3] += g2 + m * r2
     diag = m * (r0 * r0 + r1 * r1 + r2 * r2) + 2.0 * (r0 * g0 + r1 * g1 + r2 * g2)
-    J00, J01, J11, J02, J12, J22 = p[4], p[5], p[6], p[7], p[8], p[9]
     for b in range(3):
-        M0 = J00 * E[0, b] + J01 * E[1, b] + J02 * E[2, b]  # (J E)[:, b]
-        M1 = J01 * E[0, b] + J11 * E[1, b] + J12 * E[2, b]
-        M2 = J02 * E[0, b] + J12 * E[1, b] + J22 * E[2, b]
-        gb = E[0, b] * p[1] + E[1, b] * p[2] + E[2, b] * p[3]
+        Eb0, Eb1, Eb2 = X[i, 0, b], X[i, 1, b], X[i, 2, b]
+        M0 = J00 * Eb0 + J01 * Eb1 + J02 * Eb2  # (J E)[:, b]
+        M1 = J01 * Eb0 + J11 * Eb1 + J12 * Eb2
+        M2 = J02 * Eb0 + J12 * Eb1 + J22 * Eb2
+        gb = Eb0 * h0 + Eb1 * h1 + Eb2 * h2
+        rb = X[i, 3, b]
         for a in range(b + 1):
-            ga = E[0, a] * p[1] + E[1, a] * p[2] + E[2, a] * p[3]
-            s = E[0, a] * M0 + E[1, a] * M1 + E[2, a] * M2 - m * r[a] * r[b] - ga * r[b] - r[a] * gb
+            ga = X[i, 0, a] * h0 + X[i, 1, a] * h1 + X[i, 2, a] * h2
+            ra = X[i, 3, a]
+            s = X[i, 0, a] * M0 + X[i, 1, a] * M1 + X[i, 2, a] * M2 - m * ra * rb - ga * rb - ra * gb
             if a == b:
                 s += diag
-            out[4 + a + b * (b + 1) // 2] += s  # (0,0) (0,1) (1,1) (0,2) (1,2) (2,2): Pinocchio's order
+            P[dst, 4 + a + b * (b + 1) // 2] += s  # (0,0) (0,1) (1,1) (0,2) (1,2) (2,2): Pinocchio's order
 
 
-@njit(cache=True, inline="always")
-def zero_vector(x):
-    """x = 0 (a plain loop: numba compiles slice assignment slowly, ~5 s a signature)."""
-    for i in range(x.shape[0]):
-        x[i] = 0.0
+@leaf
+def dot6(V, j, a, k, b):
+    """V[j, a] · V[k, b]."""
+    return (V[j, a, 0] * V[k, b, 0] + V[j, a, 1] * V[k, b, 1] + V[j, a, 2] * V[k, b, 2]
+            + V[j, a, 3] * V[k, b, 3] + V[j, a, 4] * V[k, b, 4] + V[j, a, 5] * V[k, b, 5])
 
 
-@njit(cache=True, inline="always")
+@leaf
 def zero_matrix(M):
-    """M = 0 for a 2-D array."""
+    """M = 0 for a 2-D array (a plain loop: numba compiles slice assignment slowly, ~5 s a signature)."""
     for i in range(M.shape[0]):
         for j in range(M.shape[1]):
             M[i, j] = 0.0
-
-
-@njit(cache=True, inline="always")
-def dot6(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]

@@ -7,7 +7,8 @@ function depends on, so the row and bit constants they bake in are defined here.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from rtctl.compiled import kernel
 
 # rows of the limits table (n columns), see rtctl.safety.limits
 HARD_LO, HARD_HI, SOFT_LO, SOFT_HI, V_LIM, TAU_MAX, KP_MAX, KD_MAX = range(8)
@@ -28,7 +29,7 @@ TORQUE, IMPEDANCE = 0, 1
 FB_HOLD, FB_DAMP, FB_OFF = 0, 1, 2
 
 
-@njit(cache=True)
+@kernel
 def scan_state(q, qd, fresh, statuses, lim, iw, stale_ticks):  # pragma: no cover
     """Per joint j: set ``iw[FLAGS, j]`` to the faults its state shows this tick; returns
     how many joints show one not latched yet. ``iw[STALE_COUNT, j]`` counts consecutive
@@ -62,7 +63,7 @@ def scan_state(q, qd, fresh, statuses, lim, iw, stale_ticks):  # pragma: no cove
     return new
 
 
-@njit(cache=True)
+@kernel
 def check_tick(q, qd, fresh, statuses, lim, iw, stale_ticks, bound, mode, q_des, qd_des, kp, kd, tau_ff):  # pragma: no cover
     """The stage's whole steady-state work in one call: :func:`scan_state`, then (if
     ``bound``) :func:`bound_command`. Returns OK, NEW_STATE_FAULT (command not bounded) or
@@ -74,7 +75,7 @@ def check_tick(q, qd, fresh, statuses, lim, iw, stale_ticks, bound, mode, q_des,
     return OK
 
 
-@njit(cache=True)
+@kernel
 def bound_command(mode, q, qd, q_des, qd_des, kp, kd, tau_ff, lim, iw):  # pragma: no cover
     """Bound the command in place; returns the first joint with a non-finite command field
     (the command is then left untouched for the fault record), else -1.
@@ -127,7 +128,7 @@ def bound_command(mode, q, qd, q_des, qd_des, kp, kd, tau_ff, lim, iw):  # pragm
     return -1
 
 
-@njit(cache=True)
+@kernel
 def fallback(mode, kind, q, qd, q_des, qd_des, kp, kd, tau_ff, lim, fb):  # pragma: no cover
     """Write the fallback command for every joint.
 

@@ -7,12 +7,12 @@ point with zero velocity and acceleration.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from rtctl.compiled import kernel
 from rtctl.errors import TrajectoryError
 
 
-@njit(cache=True)
+@kernel
 def _sample(knots, coeffs, t, q, qd, qdd):  # pragma: no cover - compiled
     m = coeffs.shape[0]
     at_rest = False

@@ -70,11 +70,11 @@ def test_laws_differ_for_three_joints_and_damping_enters(random_chain):
 
 def test_phi_is_the_inertia_bilinear_form():
     rng = np.random.default_rng(0)
-    out = np.zeros(10)
+    out = np.zeros((1, 10))
     for _ in range(20):
         x, y, p = rng.normal(size=6), rng.normal(size=6), rng.normal(size=10)
-        phi_into(x, y, out)
-        assert out @ p == pytest.approx(x @ inertia(p) @ y, rel=1e-12, abs=1e-12)
+        phi_into(np.stack([x, y])[None], 0, 0, 1, out, 0)
+        assert out[0] @ p == pytest.approx(x @ inertia(p) @ y, rel=1e-12, abs=1e-12)
 
 
 def test_compute_is_pure_and_update_integrates(puma):

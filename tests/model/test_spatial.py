@@ -5,8 +5,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from rtctl.compiled import kernel
 from rtctl.model import PRISMATIC, REVOLUTE
+from rtctl.model import spatial_kernels as sk
+from rtctl.model.data import BODY_SLOTS, SUB
 from rtctl.model.dh import inertial_params
+from rtctl.model.recursions import update_joints
 from rtctl.model.rotations import rot_axis, skew
 from rtctl.model.spatial import (
     crf, crm, force_transform, icrf, inertia, inertia_basis, inertia_params, inertia_regressor,
@@ -133,36 +137,51 @@ def test_skew_and_xlt_match_the_book():
     np.testing.assert_array_equal(xlt(p)[3:, :3], -skew(p))
 
 
+@kernel
+def _leaves(Xs, V, P, results, dot):
+    """Every spatial leaf once, compiled as the recursions compile them: inputs m = V[0, 0],
+    f = V[0, 1]; results[k] as listed in the test."""
+    sk.xmotion(Xs, 0, V, 0, 0, 1, 0)
+    sk.xforce_T(Xs, 0, V, 0, 1, 1, 1, False)
+    sk.xforce_T(Xs, 0, V, 0, 1, 1, 2, True)
+    sk.crm_mul(V, 0, 0, 1, 2.0, 2, False)
+    sk.crm_mul(V, 0, 0, 1, 2.0, 3, True)
+    sk.crf_mul_add(V, 0, 0, 1, 4)
+    sk.inertia_mul(P, 0, V, 0, 0, 5)
+    sk.inertia_to_parent_add(Xs, 0, P, 0, 1)
+    dot[0] = sk.dot6(V, 0, 0, 0, 1)
+    for k in range(6):
+        results[0, k], results[1, k], results[2, k] = V[1, 0, k], V[1, 1, k], V[1, 2, k]
+        results[3, k], results[4, k], results[5, k], results[6, k] = V[0, 2, k], V[0, 3, k], V[0, 4, k], V[0, 5, k]
+
+
 @given(transforms(), vec6, vec6, params10)
 def test_compiled_kernels_match_the_6x6_forms(X, m, f, p):
-    from rtctl.model import spatial_kernels as sk
-
     E = X[:3, :3]
     r = -_unskew(E.T @ X[3:, :3])
-    out, acc, par = np.zeros(6), np.zeros(6), np.zeros(10)
-    sk.xmotion(E, r, m, out)
-    np.testing.assert_allclose(out, X @ m, atol=1e-9)
-    sk.xforce_T(E, r, f, out)
-    np.testing.assert_allclose(out, X.T @ f, atol=1e-9)
-    sk.xforce_T_add(E, r, f, acc)
-    np.testing.assert_allclose(acc, X.T @ f, atol=1e-9)
-    acc[:] = 0.0
-    sk.crm_mul_add(m, f, 2.0, acc)
-    np.testing.assert_allclose(acc, 2.0 * crm(m) @ f, atol=1e-9)
-    acc[:] = 0.0
-    sk.crf_mul_add(m, f, acc)
-    np.testing.assert_allclose(acc, crf(m) @ f, atol=1e-9)
-    sk.inertia_mul(p, m, out)
-    np.testing.assert_allclose(out, inertia(p) @ m, atol=1e-9)
-    sk.inertia_to_parent_add(E, r, p, par)
-    np.testing.assert_allclose(inertia(par), X.T @ inertia(p) @ X, atol=1e-8)
-    assert sk.dot6(m, f) == pytest.approx(m @ f)
-    for jtype in (REVOLUTE, PRISMATIC):
+    Xs = np.zeros((1, 4, 3))  # the kernels' layout: X[i] = (E; r), vectors V[link, slot], parameters P[link]
+    Xs[0, :3], Xs[0, 3] = E, r
+    V = np.zeros((2, 6, 6))
+    V[0, 0], V[0, 1] = m, f
+    V[1, 2] = m  # xforce_T accumulates onto it
+    V[0, 3] = f  # crm_mul accumulates onto it
+    V[0, 4] = m  # crf_mul_add accumulates onto it
+    P = np.zeros((2, 10))
+    P[0] = p
+    results, dot = np.zeros((7, 6)), np.zeros(1)
+    _leaves(Xs, V, P, results, dot)
+    for got, expected in zip(results, [X @ m, X.T @ f, m + X.T @ f, 2.0 * crm(m) @ f, f + 2.0 * crm(m) @ f,
+                                       m + crf(m) @ f, inertia(p) @ m]):
+        np.testing.assert_allclose(got, expected, atol=1e-9)
+    np.testing.assert_allclose(inertia(P[1]), X.T @ inertia(p) @ X, atol=1e-8)
+    assert dot[0] == pytest.approx(m @ f)
+    for jtype in (REVOLUTE, PRISMATIC):  # the joint pass: jcalc, then the tree placement
         axis = m[:3] / max(np.linalg.norm(m[:3]), 1e-9) if np.linalg.norm(m[:3]) > 1e-3 else np.array([0, 0, 1.0])
-        Rt, pt = X[:3, :3].T, r  # any placement as the tree part
-        Ej, rj, S = np.zeros((3, 3)), np.zeros(3), np.zeros(6)
-        sk.joint_transform(jtype, axis, Rt, pt, f[0], Ej, rj)
-        sk.motion_subspace(jtype, axis, S)
+        joint = np.array([[jtype, -1]])
+        geom = np.zeros((1, 5, 3))
+        geom[0, 0], geom[0, 1:4], geom[0, 4] = axis, X[:3, :3].T, r  # any placement as the tree part
+        body = np.zeros((1, BODY_SLOTS, 6))
+        update_joints(joint, geom, np.array([f[0]]), Xs, body)
         XJ, S_ref = jcalc(jtype, axis, f[0])
-        np.testing.assert_allclose(plucker(Ej.T, rj), XJ @ plucker(Rt, pt), atol=1e-9)
-        np.testing.assert_allclose(S, S_ref)
+        np.testing.assert_allclose(plucker(Xs[0, :3].T, Xs[0, 3]), XJ @ plucker(geom[0, 1:4], r), atol=1e-9)
+        np.testing.assert_allclose(body[0, SUB], S_ref)
