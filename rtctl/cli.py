@@ -12,7 +12,6 @@ Exit codes (documented for systemd units and scripts):
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from rtctl.errors import (ConfigError, ControlSocketError, HardwareError, RealtimeError, RtctlError,
@@ -29,7 +28,9 @@ def _parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="run the control loop in the foreground (the daemon)",
                          description="Run the fixed-rate control loop on the devices of CONFIG until "
-                                     "the duration ends, `rtctl stop`, SIGTERM or SIGINT. JSON logs on stdout.")
+                                     "the duration ends, `rtctl stop`, SIGTERM or SIGINT. Logs go to stdout: "
+                                     "readable lines and a summary table on a terminal, one strict JSON object "
+                                     "per line otherwise (systemd/journald) or with --log-format json.")
     run.add_argument("config", help="run configuration (TOML), e.g. configs/puma560_sim.toml")
     run.add_argument("--sim", action="store_true", help="replace the joint devices by the embedded simulator")
     run.add_argument("--duration", type=float, metavar="S", help="stop after S seconds of loop time")
@@ -40,6 +41,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--socket", metavar="PATH", help="control socket path (default from config)")
     run.add_argument("--enforce-rt", action="store_true", help="refuse to start unless every real-time knob applies")
     run.add_argument("--log-level", default="info", choices=("debug", "info", "warning", "error"))
+    run.add_argument("--log-format", default="auto", choices=("auto", "console", "json"),
+                     help="auto (default): console on a terminal, json otherwise")
 
     check = sub.add_parser("check", help="validate a run configuration and print the bus-load budget")
     check.add_argument("config")
@@ -138,7 +141,9 @@ def _dispatch(args) -> int:
 
 
 def print_json(obj) -> None:
-    print(json.dumps(obj, indent=2, sort_keys=True, default=float))
+    from rtctl import jsonout
+
+    print(jsonout.dumps(obj, indent=2, sort_keys=True))
 
 
 if __name__ == "__main__":

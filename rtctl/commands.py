@@ -1,12 +1,12 @@
 """The short subcommands of ``rtctl`` (the daemon lives in :mod:`rtctl.daemon`)."""
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 
+from rtctl import jsonout
 from rtctl.cli import EXIT_OK, print_json
 
 SHIPPED_PUMA = Path(__file__).resolve().parent.parent / "configs" / "robots" / "puma560.toml"
@@ -112,7 +112,7 @@ def bench(args) -> int:
         result = run(robot)
     print(format_table(result))
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2, default=float))
+        Path(args.json).write_text(jsonout.dumps(result, indent=2))
         print(f"wrote {args.json}")
     return EXIT_OK
 
