@@ -46,18 +46,39 @@ def print_model(args) -> int:
 
 
 def check(args) -> int:
-    """Validate everything `run` would, without touching a device; print the bus budget."""
+    """Validate everything `run` would, without touching a device; print the bus budget and
+    the environment variables the run will need (an unset one is reported, not an error)."""
     from rtctl.config import load_config
     from rtctl.runtime import build
+    from rtctl.tomltable import deferred_env
 
-    cfg = load_config(args.config, sim=args.sim)
-    runtime = build(cfg)  # plug-ins validate their options here; nothing is opened
+    with deferred_env() as env_uses:
+        cfg = load_config(args.config, sim=args.sim)
+        runtime = build(cfg)  # plug-ins validate their options here; nothing is opened
     print(f"{cfg.file}: OK — robot {cfg.model.name} ({cfg.model.nq} joints), "
           f"{cfg.loop.rate_hz:g} Hz, devices: {', '.join(f'{d.name} ({d.driver})' for d in cfg.devices)}, "
           f"controllers: {', '.join(f'{c.name} ({c.type})' for c in cfg.controllers) or 'none'}")
     for line in runtime.bus_budget():
         print(line)
+    for line in _env_lines(env_uses):
+        print(line)
     return EXIT_OK
+
+
+def _env_lines(uses) -> list[str]:
+    """What `check` says about the ``${VAR}`` a configuration names."""
+    if not uses:
+        return []
+    lines = ["environment variables the run reads:"]
+    for use in uses:
+        if use.value is not None:
+            state = f"set: {use.value!r}"
+        elif use.default is not None:
+            state = f"not set: the default {use.default!r} applies"
+        else:
+            state = "NOT SET: `run` needs it (it was not checked here)"
+        lines.append(f"  {use.name:<16} {use.key} — {state}")
+    return lines
 
 
 def control_request(args) -> int:

@@ -118,6 +118,8 @@ def load_config(path, *, sim: bool = False) -> Config:
 
     robot_t = t.table("robot")
     robot_file = (base / robot_t.str("description")).resolve()
+    if not robot_file.exists():
+        raise robot_t.error("description", f"{robot_file} not found (paths are relative to the configuration's folder)")
     try:
         model = load_robot(robot_file)
     except ConfigError:
