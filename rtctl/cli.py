@@ -67,6 +67,12 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("path")
     plot.add_argument("-o", "--output", required=True, help="PNG to write")
 
+    export = sub.add_parser("export", help="convert a telemetry file (needs the `mcap` extra for --mcap)",
+                            description="Write a recorded run as MCAP with JSON-schema channels (joint states, "
+                                        "commands, controller internals, timing, events) for Foxglove or PlotJuggler.")
+    export.add_argument("path", help="telemetry file written by `rtctl run` (msgpack)")
+    export.add_argument("--mcap", required=True, metavar="OUT", help="MCAP file to write")
+
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
                                         "control-socket", "safety", "trajectory"),
@@ -128,6 +134,12 @@ def _dispatch(args) -> int:
 
         plot_run(args.path, args.output)
         print(args.output)
+        return EXIT_OK
+    if args.command == "export":
+        from rtctl.telemetry.mcap_export import export_mcap
+
+        counts = export_mcap(args.path, args.mcap)
+        print(f"{args.mcap}: " + ", ".join(f"{topic} {n}" for topic, n in counts.items()))
         return EXIT_OK
     if args.command == "bench":
         from rtctl.commands import bench
