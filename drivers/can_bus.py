@@ -1,5 +1,5 @@
 """The CAN bus of a joint device: python-can options from the run configuration, and the
-bus-load budget of every bus of a run (spec/can_joints.md §2–3).
+bus-load budget of every bus of a run (docs/can_joints.md).
 
 ::
 

@@ -1,5 +1,5 @@
 """``hil-sim CONFIG``: the robot of a run configuration — plant and emulated MIT drives — in
-its own process, behind a real transport, for ``rtctl run`` to drive (DESIGN §2).
+its own process, behind a real transport, for ``rtctl run`` to drive (docs/operations.md, "Hardware in the loop").
 
     hil-sim configs/puma560_hil_socketcand.toml                    # transport from the config
     hil-sim CONFIG --transport socketcand [--host H] [--port N]     # default: the config's port; 0: a free one

@@ -1,4 +1,4 @@
-"""The safety stage (DESIGN §2): every tick, after the controllers and before ``write()``.
+"""The safety stage (docs/architecture.md, "The tick"): every tick, after the controllers and before ``write()``.
 
 It checks the measured state (limits, non-finite values, stale data, device status), bounds
 the controllers' command in place (:mod:`rtctl.safety.limits`), runs the interference
