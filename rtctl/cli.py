@@ -12,6 +12,7 @@ Exit codes (documented for systemd units and scripts):
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from rtctl.errors import (ConfigError, ControlSocketError, HardwareError, RealtimeError, RtctlError,
@@ -22,9 +23,17 @@ EXIT_OK, EXIT_BUG, EXIT_CONFIG, EXIT_FAULT, EXIT_HARDWARE, EXIT_RT, EXIT_SOCKET 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="rtctl", description="Real-time control runtime for robot joints.",
+        prog="rtctl", description="Real-time control runtime for robot joints. Documentation: docs/index.md "
+                                 "in the source tree.",
         epilog=__doc__.split("\n", 2)[2], formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    add_parser = sub.add_parser
+
+    def add_explained(name, **kwargs):  # every subcommand's own --help starts with what it does
+        kwargs.setdefault("description", kwargs.get("help"))
+        return add_parser(name, **kwargs)
+
+    sub.add_parser = add_explained
 
     run = sub.add_parser("run", help="run the control loop in the foreground (the daemon)",
                          description="Run the fixed-rate control loop on the devices of CONFIG until "
@@ -44,7 +53,8 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--log-format", default="auto", choices=("auto", "console", "json"),
                      help="auto (default): console on a terminal, json otherwise")
 
-    check = sub.add_parser("check", help="validate a run configuration and print the bus-load budget")
+    check = sub.add_parser("check", help="validate a run configuration; print the bus-load budget and the environment "
+                                            "variables a run reads")
     check.add_argument("config")
     check.add_argument("--sim", action="store_true", help="check as `run --sim` would")
 
@@ -53,7 +63,8 @@ def _parser() -> argparse.ArgumentParser:
     model.add_argument("--q", type=float, nargs="+", metavar="Q", help="configuration (rad/m; default home = 0)")
 
     for name, text in (("status", "print the running daemon's status"), ("stop", "stop the daemon cleanly"),
-                       ("estop", "emergency stop: controlled stop, then drives off"),
+                       ("estop", "emergency stop of the robot: damping, then drives off; the daemon stays up "
+                                 "(`reset` re-enables the drives, `stop` ends it)"),
                        ("reset", "clear latched faults whose cause is gone")):
         s = sub.add_parser(name, help=text)
         s.add_argument("--socket", metavar="PATH", help="control socket path (default: $XDG_RUNTIME_DIR/rtctl.sock)")
@@ -109,6 +120,9 @@ def main(argv=None) -> int:
         print(f"rtctl: {prefix}{e}", file=sys.stderr)
         return code
     except KeyboardInterrupt:
+        return EXIT_OK
+    except BrokenPipeError:  # `rtctl model … | head`: the reader left, nothing is wrong
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK
 
 
