@@ -133,6 +133,7 @@ def bench(args) -> int:
         result = run(robot)
     print(format_table(result))
     if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
         Path(args.json).write_text(jsonout.dumps(result, indent=2))
         print(f"wrote {args.json}")
     return EXIT_OK

@@ -323,6 +323,7 @@ class Daemon:
             self.recorder.close(summary=summary)
         self.summary = summary
         if self.args.summary:
+            Path(self.args.summary).parent.mkdir(parents=True, exist_ok=True)
             Path(self.args.summary).write_text(jsonout.dumps(summary, indent=2))
         if not self.summary_line:
             return

@@ -12,6 +12,7 @@ object API with the Agg canvas (no pyplot state, no display needed).
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -140,8 +141,10 @@ def _panels(tel):
 
 
 def plot_run(path, out_png, columns: int = 3) -> None:
-    """Draw the telemetry file ``path`` into the PNG ``out_png``."""
-    figure(path, columns).savefig(out_png, dpi=90)
+    """Draw the telemetry file ``path`` into the PNG ``out_png`` (its folder is created)."""
+    fig = figure(path, columns)
+    Path(out_png).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out_png, dpi=90)
 
 
 def figure(path, columns: int = 3):

@@ -23,6 +23,7 @@ metadata record named ``rtctl``.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 
@@ -68,7 +69,8 @@ def _writer_class():
 
 
 def export_mcap(path, out) -> dict:
-    """Write the telemetry file ``path`` as the MCAP file ``out``; return {topic: messages}."""
+    """Write the telemetry file ``path`` as the MCAP file ``out`` (its folder is created);
+    return {topic: messages}."""
     Writer = _writer_class()
     tel = read(path)
     if tel.rows == 0 or "t" not in tel:
@@ -104,6 +106,7 @@ def export_mcap(path, out) -> dict:
                                    {f"{p}_us": list(columns[k]) for k, p in enumerate(phases)})
 
     events = _events(t, tel, summary)
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
     with open(out, "wb") as f:
         writer = Writer(f)
         writer.start(profile="", library="rtctl")
