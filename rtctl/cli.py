@@ -12,7 +12,7 @@ Exit codes (documented for systemd units and scripts):
 from __future__ import annotations
 
 import argparse
-import json
+import os
 import sys
 
 from rtctl.errors import (ConfigError, ControlSocketError, HardwareError, RealtimeError, RtctlError,
@@ -23,16 +23,26 @@ EXIT_OK, EXIT_BUG, EXIT_CONFIG, EXIT_FAULT, EXIT_HARDWARE, EXIT_RT, EXIT_SOCKET 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="rtctl", description="Real-time control runtime for robot joints.",
+        prog="rtctl", description="Real-time control runtime for robot joints. Documentation: docs/index.md "
+                                 "in the source tree.",
         epilog=__doc__.split("\n", 2)[2], formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    add_parser = sub.add_parser
+
+    def add_explained(name, **kwargs):  # every subcommand's own --help starts with what it does
+        kwargs.setdefault("description", kwargs.get("help"))
+        return add_parser(name, **kwargs)
+
+    sub.add_parser = add_explained
 
     run = sub.add_parser("run", help="run the control loop in the foreground (the daemon)",
                          description="Run the fixed-rate control loop on the devices of CONFIG until "
-                                     "the duration ends, `rtctl stop`, SIGTERM or SIGINT. JSON logs on stdout.")
+                                     "the duration ends, `rtctl stop`, SIGTERM or SIGINT. Logs go to stdout: "
+                                     "readable lines and a summary table on a terminal, one strict JSON object "
+                                     "per line otherwise (systemd/journald) or with --log-format json.")
     run.add_argument("config", help="run configuration (TOML), e.g. configs/puma560_sim.toml")
     run.add_argument("--sim", action="store_true", help="replace the joint devices by the embedded simulator")
-    run.add_argument("--duration", type=float, metavar="S", help="stop after S seconds of loop time")
+    run.add_argument("--duration", type=float, metavar="S", help="stop after S seconds of loop time (default: run until `rtctl stop`, SIGTERM or Ctrl-C)")
     run.add_argument("--realtime-factor", type=float, metavar="F",
                      help="simulated devices only: 0 = as fast as possible (reproducible), 1 = wall clock")
     run.add_argument("--telemetry", metavar="PATH", help="record telemetry (msgpack) to PATH")
@@ -40,8 +50,11 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--socket", metavar="PATH", help="control socket path (default from config)")
     run.add_argument("--enforce-rt", action="store_true", help="refuse to start unless every real-time knob applies")
     run.add_argument("--log-level", default="info", choices=("debug", "info", "warning", "error"))
+    run.add_argument("--log-format", default="auto", choices=("auto", "console", "json"),
+                     help="auto (default): console on a terminal, json otherwise")
 
-    check = sub.add_parser("check", help="validate a run configuration and print the bus-load budget")
+    check = sub.add_parser("check", help="validate a run configuration; print the bus-load budget and the environment "
+                                            "variables a run reads")
     check.add_argument("config")
     check.add_argument("--sim", action="store_true", help="check as `run --sim` would")
 
@@ -61,7 +74,8 @@ def _parser() -> argparse.ArgumentParser:
     model.add_argument("--q", type=float, nargs="+", metavar="Q", help="configuration (rad/m; default home = 0)")
 
     for name, text in (("status", "print the running daemon's status"), ("stop", "stop the daemon cleanly"),
-                       ("estop", "emergency stop: controlled stop, then drives off"),
+                       ("estop", "emergency stop of the robot: damping, then drives off; the daemon stays up "
+                                 "(`reset` re-enables the drives, `stop` ends it)"),
                        ("reset", "clear latched faults whose cause is gone")):
         s = sub.add_parser(name, help=text)
         s.add_argument("--socket", metavar="PATH", help="control socket path (default: $XDG_RUNTIME_DIR/rtctl.sock)")
@@ -74,6 +88,12 @@ def _parser() -> argparse.ArgumentParser:
     plot = sub.add_parser("plot", help="draw a telemetry file (needs the `plot` extra: matplotlib)")
     plot.add_argument("path")
     plot.add_argument("-o", "--output", required=True, help="PNG to write")
+
+    export = sub.add_parser("export", help="convert a telemetry file (needs the `mcap` extra for --mcap)",
+                            description="Write a recorded run as MCAP with JSON-schema channels (joint states, "
+                                        "commands, controller internals, timing, events) for Foxglove or PlotJuggler.")
+    export.add_argument("path", help="telemetry file written by `rtctl run` (msgpack)")
+    export.add_argument("--mcap", required=True, metavar="OUT", help="MCAP file to write")
 
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
@@ -112,6 +132,9 @@ def main(argv=None) -> int:
         return code
     except KeyboardInterrupt:
         return EXIT_OK
+    except BrokenPipeError:  # `rtctl model … | head`: the reader left, nothing is wrong
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_OK
 
 
 def _dispatch(args) -> int:
@@ -141,6 +164,12 @@ def _dispatch(args) -> int:
         plot_run(args.path, args.output)
         print(args.output)
         return EXIT_OK
+    if args.command == "export":
+        from rtctl.telemetry.mcap_export import export_mcap
+
+        counts = export_mcap(args.path, args.mcap)
+        print(f"{args.mcap}: " + ", ".join(f"{topic} {n}" for topic, n in counts.items()))
+        return EXIT_OK
     if args.command == "bench":
         from rtctl.commands import bench
 
@@ -153,7 +182,9 @@ def _dispatch(args) -> int:
 
 
 def print_json(obj) -> None:
-    print(json.dumps(obj, indent=2, sort_keys=True, default=float))
+    from rtctl import jsonout
+
+    print(jsonout.dumps(obj, indent=2, sort_keys=True))
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Run configuration: TOML → validated, frozen dataclasses (DESIGN §5).
+"""Run configuration: TOML → validated, frozen dataclasses (docs/architecture.md).
 
 Everything is checked before any device is touched; every error names the file, the key
 path and what was expected (:class:`rtctl.errors.ConfigError`, exit code 2 from the CLI).
@@ -40,7 +40,7 @@ class LoopConfig:
     overrun_limit: int = 50  # consecutive overruns → controlled safe stop
     spin_us: float = 200.0  # sleep until deadline − spin, then spin
     realtime_factor: float = 1.0  # 0 = as fast as possible (simulated devices only)
-    rt: RtSettings = field(default_factory=lambda: RtSettings(gc_freeze=True))  # DESIGN §2: GC frozen while running
+    rt: RtSettings = field(default_factory=lambda: RtSettings(gc_freeze=True))  # GC frozen while running
 
     @property
     def period(self) -> float:
@@ -118,6 +118,8 @@ def load_config(path, *, sim: bool = False) -> Config:
 
     robot_t = t.table("robot")
     robot_file = (base / robot_t.str("description")).resolve()
+    if not robot_file.exists():
+        raise robot_t.error("description", f"{robot_file} not found (paths are relative to the configuration's folder)")
     try:
         model = load_robot(robot_file)
     except ConfigError:
@@ -252,7 +254,7 @@ def _names(t: Table, key: str) -> tuple[str, ...]:
 
 
 def _check_owners(t: Table, controllers) -> None:
-    """One owner per joint command (DESIGN §4)."""
+    """One owner per joint command (docs/architecture.md)."""
     owner = {}
     for i, c in enumerate(controllers):
         for j in c.joints:

@@ -1,4 +1,4 @@
-"""Controllers (DESIGN §4): one module per controller, each behind the Controller protocol.
+"""Controllers (docs/architecture.md): one module per controller, each behind the Controller protocol.
 
 ``CONTROLLERS`` maps the configuration's ``type`` to the class; classes are imported on
 first use so that a run pays only for the controllers it configures.

@@ -45,6 +45,35 @@ def test_estop_with_zero_delay_is_category_0():
     assert r.step() == Verdict.DEACTIVATE
 
 
+def test_a_normal_stop_damps_like_an_estop_but_latches_nothing():
+    r = Rig(estop_off_delay=0.003, damping=2.0)
+    r.state.velocity[:] = [1.0, -1.0, 0.5]
+    r.step()
+    with structlog.testing.capture_logs() as logs:
+        r.stage.stop("duration reached")
+        r.stage.stop("signal SIGTERM")  # the first reason stands
+        verdicts = [r.step() for _ in range(5)]
+    np.testing.assert_array_equal(r.command.tau_ff, 0.0)
+    assert verdicts == [Verdict.FALLBACK] * 2 + [Verdict.DEACTIVATE] * 3  # the same timing as an e-stop
+    assert not r.stage.faulted and r.stage.faults == []
+    assert [(e["event"], e["log_level"]) for e in logs] == [("stop", "info"), ("deactivate", "info")]
+    summary = r.stage.summary()
+    assert summary["faulted"] is False and summary["stop"] == {"reason": "duration reached", "t": 0.0}
+    assert not r.stage.reset()  # the run is ending: nothing re-arms it
+    assert r.step() == Verdict.DEACTIVATE
+
+
+def test_a_fault_during_a_normal_stop_is_still_a_fault():
+    r = Rig(estop_off_delay=1.0)
+    r.state.velocity[:] = 0.5
+    r.stage.stop("stop requested")
+    r.state.position[0] = 1.5  # past q_max during the stop
+    with structlog.testing.capture_logs() as logs:
+        assert r.step() == Verdict.FALLBACK
+    assert r.stage.faulted and r.stage.faults[0].kind == FaultKind.POSITION
+    assert logs[0]["event"] == "fault" and logs[0]["log_level"] == "warning"
+
+
 def test_ordinary_fault_holds_until_fault_off_delay():
     r = Rig(fault_off_delay=0.002)
     r.command.tau_ff[0] = math.nan
