@@ -23,15 +23,16 @@ because in closed loop it integrates Kε and diverges (tests/estimation). Safegu
 plain Sage–Husa equations lack: when ε² − hᵀP(k+1|k)h < 0 (always, while P is still large) (25)
 uses ε² alone — flooring it instead lets R̂ collapse at the start and the coefficients chase the
 noise — and R̂ is floored at ``R_min`` > 0; the gain uses max(R̂, 10⁻⁹ hᵀPh), so P never
-collapses to exactly singular along h (rounding would then make it indefinite); Q̂ is kept diagonal (only its diagonal is estimated) and floored at ``Q_min`` ≥ 0; P is updated
-in Joseph form and symmetrised. Option ``forget_covariance``: P(k+1|k) = P(k|k)/λ + Q̂, the
-exponential forgetting of recursive least squares, so that the coefficients themselves track a
-change within ≈ ln(tol)/ln(λ) samples (not in the paper; off by default).
+collapses to exactly singular along h (rounding would then make it indefinite); Q̂ is kept
+diagonal (only its diagonal is estimated) and floored at ``Q_min`` ≥ 0; P is updated in Joseph
+form and symmetrised. Option ``forget_covariance``: P(k+1|k) = P(k|k)/λ + Q̂, the exponential
+forgetting of recursive least squares, so that the coefficients themselves track a change within
+≈ ln(tol)/ln(λ) samples (not in the paper; off by default).
 
 Storage is channel-last (Pinocchio's model/data split: a :class:`SageHusa` owns everything
-preallocated): θ̂ and q̂, Q̂ are (p, m), P is (m, p, p), the statistics are rows of
-``signals`` (4, m): r̂, R̂, ε, y − hᵀθ̂(k+1|k). One compiled call updates one channel
-(:func:`sage_husa_step`) and allocates nothing.
+preallocated): θ̂ is (p, m), P is (m, p, p), q̂, Q̂ and Q_min are the rows of ``drift`` (3, p,
+m), the statistics are rows of ``signals`` (4, m): r̂, R̂, ε, y − hᵀθ̂(k+1|k). One compiled call
+updates one channel (:func:`sage_husa_step`) and allocates nothing.
 """
 from __future__ import annotations
 
@@ -182,7 +183,9 @@ class SageHusa:
         self.theta0 = _per_channel(theta0, m, p, "theta0")
         P0d = _per_channel(P0, m, p, "P0")
         self.q0, self.Q0 = _per_channel(q0, m, p, "q0"), _per_channel(Q0, m, p, "Q0")
-        self.Q_min = _per_channel(Q_min, m, p, "Q_min")
+        self.drift = np.zeros((3, p, m))  # q̂, Q̂ (diagonal), Q_min: one array for compiled callers
+        self.q_hat, self.Q_hat, self.Q_min = self.drift
+        self.Q_min[:] = _per_channel(Q_min, m, p, "Q_min")
         self.r0, self.R0 = _per_channel(r0, m, None, "r0"), _per_channel(R0, m, None, "R0")
         for name, arr in (("theta0", self.theta0), ("P0", P0d), ("q0", self.q0), ("Q0", self.Q0),
                           ("Q_min", self.Q_min), ("r0", self.r0), ("R0", self.R0)):
@@ -199,7 +202,6 @@ class SageHusa:
             self.switches[SWITCH_NAMES.index(name)] = 1
         self.switches[FORGET_COV] = bool(forget_covariance)
         self.theta, self.P = self.theta0.copy(), self.P0.copy()
-        self.q_hat, self.Q_hat = self.q0.copy(), self.Q0.copy()
         self.signals = np.zeros((4, m))
         self.steps = np.zeros(m, dtype=np.int64)
         self._Ph, self._old = np.zeros(p), np.zeros(p)
