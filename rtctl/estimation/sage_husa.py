@@ -47,7 +47,7 @@ R_HAT, RCOV_HAT, EPS, PRED_ERR = range(4)
 R_REL = 1e-9  # the gain's R is at least R_REL · hᵀP(k+1|k)h
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")  # 0/0 → NaN, caught by the caller
 def sage_husa_step(i, theta, P, q_hat, Q_hat, signals, steps, h, y, lam, switches, R_min, Q_min, Ph, old_diag):
     """One filter step of channel ``i`` with regressor ``h`` and measurement ``y``; ``steps[i]``
     counts the channel's steps since the start (d_0 = 1). ``Ph``, ``old_diag``: scratch (p,)."""
