@@ -45,7 +45,7 @@ _STRIDE = 16
 
 @njit(cache=True)
 def arma_gmv_kernel(iset, fset, joint_params, joints, position, ref_q, ref_qd, ref_qdd, theta, P, drift, signals,
-                    steps, y_hist, u_hist, scratch, tau):
+                    fade, y_hist, u_hist, scratch, tau):
     """One controller update over the owned joints; returns 0 or 1 + 16·(local joint) + the
     index of the failing quantity in :data:`FAILURES` (nothing written for that joint then)."""
     na, d = iset[NA], iset[D]
@@ -62,7 +62,7 @@ def arma_gmv_kernel(iset, fset, joint_params, joints, position, ref_q, ref_qd, r
             return 1 + _STRIDE * i + 8
         if iset[PRIMED]:
             regressor_into(i, y_hist, u_hist, d, h)
-            sage_husa_step(i, theta, P, drift[0], drift[1], signals, steps, h, y, fset[LAM], iset, fset[R_MIN],
+            sage_husa_step(i, theta, P, drift[0], drift[1], signals, fade, h, y, fset[LAM], iset, fset[R_MIN],
                            drift[2], Ph, old)
             bad = first_nonfinite(i, theta, P, drift[0], drift[1], signals)
             if bad >= 0:
@@ -152,7 +152,7 @@ class ArmaGmv(Controller):
         self.fset[HORIZON] = self.order.d * (t - self._t_prev) if self._t_prev == self._t_prev else 0.0
         self._t_prev = t
         code = arma_gmv_kernel(self.iset, self.fset, self.joint_params, self.joints, state.position, ref.q, ref.qd,
-                               ref.qdd, f.theta, f.P, f.drift, f.signals, f.steps, self.y_hist, self.u_hist,
+                               ref.qdd, f.theta, f.P, f.drift, f.signals, f.fade, self.y_hist, self.u_hist,
                                self.scratch, command.tau_ff)
         if code:
             i, what = divmod(code - 1, _STRIDE)

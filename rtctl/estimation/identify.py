@@ -39,7 +39,7 @@ def identify(y, u, order: ArxOrder = ArxOrder(), **filter_options) -> dict:
     for k in range(1, N):
         for i in range(m):
             regressor_into(i, y_hist, u_hist, order.d, h)
-            sage_husa_step(i, f.theta, f.P, f.q_hat, f.Q_hat, f.signals, f.steps, h, y[k, i], f.lam, f.switches,
+            sage_husa_step(i, f.theta, f.P, f.q_hat, f.Q_hat, f.signals, f.fade, h, y[k, i], f.lam, f.switches,
                            f.R_min, f.Q_min, f._Ph, f._old)
             push_history(i, y_hist, u_hist, y[k, i], u[k, i])
         eps[k - 1], pred[k - 1] = f.signals[EPS], f.signals[PRED_ERR]

@@ -48,13 +48,15 @@ R_REL = 1e-9  # the gain's R is at least R_REL · hᵀP(k+1|k)h
 
 
 @njit(cache=True, error_model="numpy")  # 0/0 → NaN, caught by the caller
-def sage_husa_step(i, theta, P, q_hat, Q_hat, signals, steps, h, y, lam, switches, R_min, Q_min, Ph, old_diag):
-    """One filter step of channel ``i`` with regressor ``h`` and measurement ``y``; ``steps[i]``
-    counts the channel's steps since the start (d_0 = 1). ``Ph``, ``old_diag``: scratch (p,)."""
+def sage_husa_step(i, theta, P, q_hat, Q_hat, signals, fade, h, y, lam, switches, R_min, Q_min, Ph, old_diag):
+    """One filter step of channel ``i`` with regressor ``h`` and measurement ``y``; ``fade[i]`` =
+    λᵏ, k the channel's steps since the start (1 at the start: d_0 = 1). ``Ph``, ``old_diag``:
+    scratch (p,)."""
     p = h.shape[0]
     Pi = P[i]
-    dk = (1.0 - lam) / (1.0 - lam ** (steps[i] + 1.0))
-    steps[i] += 1
+    lam_k1 = fade[i] * lam  # λ^(k+1), kept as a product: pow() costs more than the whole update
+    dk = (1.0 - lam) / (1.0 - lam_k1)
+    fade[i] = lam_k1 if lam_k1 > 1e-200 else 0.0  # no subnormals
     for a in range(p):
         old_diag[a] = Pi[a, a]
     if switches[FORGET_COV]:
@@ -80,13 +82,14 @@ def sage_husa_step(i, theta, P, q_hat, Q_hat, signals, steps, h, y, lam, switche
     R_gain = R_hat if R_hat > R_REL * s else R_REL * s
     S = s + R_gain
     if s > 0.0:  # s ≤ 0: P has (numerically) no variance along h, y carries no news about θ
+        inv_S = 1.0 / S
         # Joseph form, expanded: (I − K hᵀ) P (I − K hᵀ)ᵀ + R K Kᵀ = P − K Phᵀ − (Ph − s K) Kᵀ + R K Kᵀ
         for a in range(p):
-            Ka = Ph[a] / S
+            Ka = Ph[a] * inv_S
             theta[a, i] += Ka * eps  # (18)
             va = Ph[a] - s * Ka
             for b in range(a + 1):
-                Kb = Ph[b] / S
+                Kb = Ph[b] * inv_S
                 vb = Ph[b] - s * Kb
                 # symmetric by construction: the (a, b) and (b, a) terms averaged
                 upd = Pi[a, b] - 0.5 * (Ka * Ph[b] + Kb * Ph[a]) - 0.5 * (va * Kb + vb * Ka) + R_gain * Ka * Kb
@@ -119,8 +122,15 @@ def sage_husa_step(i, theta, P, q_hat, Q_hat, signals, steps, h, y, lam, switche
 @njit(cache=True)
 def first_nonfinite(i, theta, P, q_hat, Q_hat, signals) -> int:
     """−1 if channel ``i``'s estimates are all finite, else the index of the first bad quantity
-    in :data:`QUANTITIES`."""
+    in :data:`QUANTITIES`. One sum on the normal path (NaN and ±inf propagate through it)."""
     p = theta.shape[0]
+    total = signals[R_HAT, i] + signals[RCOV_HAT, i]
+    for a in range(p):
+        total += theta[a, i] + q_hat[a, i] + Q_hat[a, i]
+        for b in range(p):
+            total += P[i, a, b]
+    if np.isfinite(total):
+        return -1
     for a in range(p):
         if not np.isfinite(theta[a, i]):
             return 0
@@ -135,9 +145,7 @@ def first_nonfinite(i, theta, P, q_hat, Q_hat, signals) -> int:
     for a in range(p):
         if not np.isfinite(q_hat[a, i]):
             return 4
-        if not np.isfinite(Q_hat[a, i]):
-            return 5
-    return -1
+    return 5  # Q̂, or finite values whose sum overflowed (≈ 1e308: diverged all the same)
 
 
 QUANTITIES = ("coefficient estimate θ̂", "covariance P", "noise mean r̂", "noise variance R̂",
@@ -203,7 +211,7 @@ class SageHusa:
         self.switches[FORGET_COV] = bool(forget_covariance)
         self.theta, self.P = self.theta0.copy(), self.P0.copy()
         self.signals = np.zeros((4, m))
-        self.steps = np.zeros(m, dtype=np.int64)
+        self.fade = np.ones(m)  # λᵏ per channel
         self._Ph, self._old = np.zeros(p), np.zeros(p)
         self.reset()
 
@@ -225,7 +233,7 @@ class SageHusa:
         self.signals[:] = 0.0
         self.signals[R_HAT], self.signals[RCOV_HAT] = self.r0, self.R0
         np.maximum(self.signals[RCOV_HAT], self.R_min, out=self.signals[RCOV_HAT])
-        self.steps[:] = 0
+        self.fade[:] = 1.0
 
     def update(self, i: int, h, y: float) -> float:
         """One step of channel ``i``; returns ε. Checks its inputs (use the compiled
@@ -237,6 +245,6 @@ class SageHusa:
             raise ValueError(f"channel {i} out of range 0..{self.m - 1}")
         if not (np.all(np.isfinite(h)) and np.isfinite(y)):
             raise ValueError("h and y must be finite")
-        sage_husa_step(i, self.theta, self.P, self.q_hat, self.Q_hat, self.signals, self.steps, h, float(y),
+        sage_husa_step(i, self.theta, self.P, self.q_hat, self.Q_hat, self.signals, self.fade, h, float(y),
                        self.lam, self.switches, self.R_min, self.Q_min, self._Ph, self._old)
         return float(self.signals[EPS, i])
