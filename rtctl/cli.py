@@ -94,13 +94,30 @@ def _parser() -> argparse.ArgumentParser:
                                         "commands, controller internals, timing, events) for Foxglove or PlotJuggler.")
     export.add_argument("path", help="telemetry file written by `rtctl run` (msgpack)")
     export.add_argument("--mcap", required=True, metavar="OUT", help="MCAP file to write")
+    ident = sub.add_parser("identify", help="fit the ARX model to a recorded run (adaptive Kalman filter)",
+                           description="Run the Sage–Husa filter of the arma_gmv controller over a telemetry "
+                                       "file (y = measured position q, u = commanded torque tau) and print, per "
+                                       "joint, θ̂ = [a1 … a_na, b0 … b_nb], r̂, R̂ and the RMS one-step "
+                                       "prediction error ε.")
+    ident.add_argument("path", help="telemetry file (rtctl run --telemetry)")
+    ident.add_argument("--joints", nargs="+", metavar="NAME", help="joint names (default: all; commas allowed)")
+    ident.add_argument("--period", type=float, metavar="S", help="sample time in s (default: every recorded tick)")
+    ident.add_argument("--na", type=int, default=2, help="output order (default 2)")
+    ident.add_argument("--nb", type=int, default=2, help="input order: b0 … b_nb (default 2)")
+    ident.add_argument("--d", type=int, default=1, help="dead time in samples (default 1)")
+    ident.add_argument("--lam", type=float, default=0.98, help="forgetting factor λ of the noise statistics, in (0, 1)")
+    ident.add_argument("--adapt", nargs="*", default=["r", "R"], choices=("r", "R", "q", "Q"),
+                       help="switched-on adaptations (default: r R)")
+    ident.add_argument("--p0", type=float, default=1e3, help="P(0) = p0·I, θ̂(0) = 0 (default 1e3)")
+    ident.add_argument("--r0", type=float, default=1e-6, help="R̂(0) (default 1e-6)")
+    ident.add_argument("--json", metavar="PATH", help="also write the result as JSON")
 
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
                                         "control-socket", "safety", "trajectory"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
                             "PUMA 560; loop-timing: an empty loop (like cyclictest); can: codec and transports; "
-                            "control: the Slotine–Li laws; telemetry, control-socket, safety, trajectory: their per-tick costs")
+                            "control: the Slotine–Li laws and arma_gmv; telemetry, control-socket, safety, trajectory: their per-tick costs")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
     bench.add_argument("--config", default=None, help="run configuration for `bench loop` (default: the shipped one)")
@@ -170,6 +187,10 @@ def _dispatch(args) -> int:
         counts = export_mcap(args.path, args.mcap)
         print(f"{args.mcap}: " + ", ".join(f"{topic} {n}" for topic, n in counts.items()))
         return EXIT_OK
+    if args.command == "identify":
+        from rtctl.estimation.identify import main as identify
+
+        return identify(args)
     if args.command == "bench":
         from rtctl.commands import bench
 

@@ -15,7 +15,7 @@ Layout of a run configuration (paths are relative to the file)::
                   joints (kind "joints" only), driver options …
     [[controllers]] name, type, joints ([] for an observer that owns no command), divisor,
                   devices (names of non-joint devices it uses), gains …
-    [trajectory]  unit, waypoints, smooth, dwell, velocity/acceleration limits
+    [trajectory]  unit, waypoints, smooth, dwell, velocity/acceleration limits, durations
     [safety]      fallback, damping, stale_ticks, position_margin, estop_off_delay
     [telemetry]   path, batch_rows
     [control]     socket
@@ -76,6 +76,7 @@ class TrajectoryConfig:
     dwell: float = 0.0
     velocity_scale: float = 0.5  # fraction of the robot's velocity limits
     max_acceleration: np.ndarray | None = None
+    durations: tuple[float, ...] | None = None  # s per motion segment (default: as fast as the limits allow)
 
 
 @dataclass(frozen=True)
@@ -283,10 +284,15 @@ def _trajectory(t: Table | None, model: Model) -> TrajectoryConfig | None:
             raise t.error(f"waypoints[{k}][{j}]", f"within {model.joint_names[j]}'s limits "
                           f"[{model.q_min[j] / scale[j]:g}, {model.q_max[j] / scale[j]:g}] {unit}")
     acc = t.vector("max_acceleration", model.nq, None)
+    durations = t.vector("durations", None, None)
+    if durations is not None and (not np.all(durations > 0) or len(durations) != len(wp)):
+        raise t.error("durations", f"{len(wp)} positive numbers (s), one per motion segment from the start "
+                                   f"through each waypoint")
     cfg = TrajectoryConfig(
         waypoints=wp, smooth=t.bool("smooth", True), dwell=t.float("dwell", 0.0, min=0.0),
         velocity_scale=t.float("velocity_scale", 0.5, positive=True, max=1.0),
-        max_acceleration=None if acc is None else acc * scale)
+        max_acceleration=None if acc is None else acc * scale,
+        durations=None if durations is None else tuple(durations.tolist()))
     t.done()
     return cfg
 

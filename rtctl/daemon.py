@@ -183,7 +183,8 @@ class Daemon:
         tcfg = self.cfg.trajectory
         if tcfg is None:
             return hold(q0)
-        return through_waypoints(tcfg.waypoints, self.limits, start=q0, smooth=tcfg.smooth, dwell=tcfg.dwell)
+        return through_waypoints(tcfg.waypoints, self.limits, start=q0, smooth=tcfg.smooth, dwell=tcfg.dwell,
+                                 durations=tcfg.durations)
 
     def _loop(self, server) -> None:
         ticker, tick, safety = self.ticker, self.tick, self.safety

@@ -63,3 +63,8 @@ class ControlSocketError(RtctlError):
 
 class TelemetryError(RtctlError):
     """A telemetry file cannot be written or read back (bad schema, writer died, not a telemetry file)."""
+
+
+class ControllerError(RtctlError):
+    """A controller cannot produce a valid command (e.g. a non-finite estimate); names the joint
+    and the quantity. Raised from ``update()``: the safety stage takes over in the same tick."""

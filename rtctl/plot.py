@@ -21,6 +21,9 @@ from rtctl.telemetry import read
 from rtctl.timing import PHASES
 
 ESTIMATE_PREFIXES = ("params_hat", "pi_hat")
+# arma_gmv internals: column → (title, unit); a_hat / b_hat are (coefficients, joints) per row
+ARMA_PANELS = {"r_hat": ("virtual-noise mean r̂", "rad"), "R_hat": ("virtual-noise variance R̂", "rad²"),
+               "eps": ("innovation ε", "rad"), "u": ("GMV torque u", "N·m")}
 
 
 def _figure_class():
@@ -137,6 +140,21 @@ def _panels(tel):
     estimates = [name for name in tel.columns if name.startswith(ESTIMATE_PREFIXES)]
     if estimates:
         panels.append(_estimates(t, tel, estimates))
+    panels += _arma_panels(t, tel)
+    return panels
+
+
+def _arma_panels(t, tel):
+    panels = []
+    for name, symbol in (("a_hat", "â"), ("b_hat", "b̂")):
+        if name in tel and tel[name].ndim == 3:
+            first = 1 if name == "a_hat" else 0
+            for k in range(tel[name].shape[1]):
+                panels.append(lambda ax, v=tel[name][:, k, :], title=f"{symbol}{first + k}":
+                              _per_joint(ax, t, v, title, ""))
+    for name, (title, unit) in ARMA_PANELS.items():
+        if name in tel and "b_hat" in tel:
+            panels.append(lambda ax, v=_columns(tel, name), title=title, unit=unit: _per_joint(ax, t, v, title, unit))
     return panels
 
 
