@@ -77,6 +77,10 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--seconds", type=float, default=10.0, help="duration for `bench loop` (s)")
 
     sub.add_parser("doctor", help="report this machine's real-time readiness and what to change")
+
+    from rtctl.logic.cli import add_parser as add_leg_parser
+
+    add_leg_parser(sub)
     return p
 
 
@@ -130,6 +134,10 @@ def _dispatch(args) -> int:
         from rtctl.commands import bench
 
         return bench(args)
+    if args.command == "leg":
+        from rtctl.logic.cli import leg_command
+
+        return leg_command(args)
     if args.command == "doctor":
         from rtctl.commands import doctor
 
