@@ -94,6 +94,7 @@ class LegAutomaton(Controller):
         self.initial_code = a.codes[self.circuit.flow.initial]
         self.data = np.zeros(GATE0 + self.table.n_gates, dtype=np.int64)
         self.board: LegBoard | None = None
+        self.telemetry_meta = {"leg_gates_labels": list(table.gates), "leg_actions_labels": ["knee", "ankle"]}
         self.internals = {"leg_state": self.data[LABEL:LABEL + 1], "leg_settle": self.data[PASSES:PASSES + 1],
                           "leg_gates": self.data[GATE0:]}
         self.reset(None)
