@@ -15,29 +15,23 @@ from __future__ import annotations
 
 import os
 import select
-import socket
 import time
-import tty
 
 from drivers.protocols import leg_board as proto
 from hil_sim.leg_plant import LegPlant
+from hil_sim.pty import PtyEndpoint
 
 _MAX_QUEUED = 65536
 
 
-class LegBoardServer:
+class LegBoardServer(PtyEndpoint):
     def __init__(self, plant: LegPlant, period: float, realtime_factor: float = 0.0, watchdog_s: float = 0.05,
                  emit=print, clock=time.monotonic):
+        super().__init__()
         self.plant, self.period, self.factor = plant, period, realtime_factor
         self.watchdog_s, self.emit, self.clock = watchdog_s, emit, clock
-        self._master, self._slave = os.openpty()
-        tty.setraw(self._slave)
-        os.set_blocking(self._master, False)
-        self.path = os.ttyname(self._slave)
-        self._wake_r, self._wake_w = socket.socketpair()
         self.decoder = proto.Decoder(proto.COMMAND)
         self._out = bytearray()
-        self._stop = False
         self._seq = 0
         self.locked = False  # by the watchdog
         self.silent = False
@@ -140,24 +134,6 @@ class LegBoardServer:
             except (BlockingIOError, OSError):
                 return
             del self._out[:n]
-
-    # -- stopping ---------------------------------------------------------------------------
-    def shutdown(self) -> None:
-        self._stop = True
-        try:
-            self._wake_w.send(b"x")
-        except OSError:
-            pass
-
-    def close(self) -> None:
-        for fd in (self._master, self._slave):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
-        self._master = self._slave = -1
-        self._wake_r.close()
-        self._wake_w.close()
 
     def summary(self) -> dict:
         return {"event": "exit", "commands": self.commands, "plant_time": self.plant.time, "locked": self.locked,
