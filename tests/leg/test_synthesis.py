@@ -180,4 +180,4 @@ def test_replay_reports_an_order_that_cannot_end_in_the_tables_state(tmp_path):
     assert failure["order"] == ["t_d", "a_d"] and failure["state"] == 3
     assert "1010 0110".replace(" ", "") in failure["why"] and "exit of state 2 to state 3" in failure["why"]
     result = rtctl("leg", "replay", path)
-    assert result.returncode == 1 and "rows where some order cannot: 4" in result.stdout
+    assert result.returncode == 0 and "rows where some order cannot: 4" in result.stdout
