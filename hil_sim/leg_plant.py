@@ -22,6 +22,7 @@ the angles and so the contacts, and a wrong action visibly breaks the walk. Unit
 """
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, field, fields
 
@@ -105,7 +106,10 @@ class LegPlant:
         self._noise = np.zeros(5)
         self._noise_scale = np.array([params.angle_noise * D] * 3 + [params.load_noise] * 2)
         self.rng = np.random.default_rng(params.seed)
-        self._knots = (np.asarray(params.hip_height_phase, dtype=float), np.asarray(params.hip_height, dtype=float))
+        # knots of the pelvis height, one period repeated on each side (periodic interpolation)
+        ph, h = list(params.hip_height_phase), list(params.hip_height)
+        self._phases = [x - 1.0 for x in ph] + ph + [x + 1.0 for x in ph]
+        self._heights = h * 3
         self.time = 0.0
         self.q[:] = (self.hip_angle(0.0), params.knee_rest * D, params.ankle_rest * D)
         self._contacts()
@@ -119,8 +123,10 @@ class LegPlant:
         return (self.p.hip_mean + self.p.hip_amplitude * math.cos(2 * math.pi * self.phase(t))) * D
 
     def hip_height(self, t: float) -> float:
-        phases, heights = self._knots
-        return float(np.interp(self.phase(t), phases, heights, period=1.0))
+        p, phases, heights = self.phase(t), self._phases, self._heights
+        k = bisect.bisect_right(phases, p)
+        w = (p - phases[k - 1]) / (phases[k] - phases[k - 1])
+        return heights[k - 1] + w * (heights[k] - heights[k - 1])
 
     # -- contact ----------------------------------------------------------------------------
     def _contacts(self) -> None:
