@@ -24,11 +24,11 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 
 import numpy as np
 
-from drivers.protocols.leg_board import DECREASE, HOLD, INCREASE, RELEASE
+from drivers.protocols.leg_board import DECREASE, INCREASE, RELEASE
 
 D = math.pi / 180.0
 HIP, KNEE, ANKLE, TOE, HEEL = range(5)

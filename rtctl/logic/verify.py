@@ -114,7 +114,7 @@ class ReplayRow:
 
 def replay(circuit: Circuit, model: CircuitModel, keep: int = 5) -> list[ReplayRow]:
     """Table rows in every one-at-a-time order of their changed gate bits (module doc)."""
-    table, flow, a = circuit.table, circuit.flow, circuit.assignment
+    table, a = circuit.table, circuit.assignment
     em = Emulator(model)
     rows = []
     for k in range(len(table.states)):

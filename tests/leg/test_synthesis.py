@@ -4,7 +4,6 @@ import itertools
 import re
 
 import numpy as np
-import pytest
 from hypothesis import given, settings, strategies as st
 
 from leg_helpers import TABLE3, rtctl
