@@ -6,6 +6,7 @@ its own process, behind a real transport, for ``rtctl run`` to drive (docs/opera
     hil-sim CONFIG --transport slcan                                # one pty per bus
     hil-sim CONFIG --realtime-factor 1                              # free-running (default 0: lock-step)
     hil-sim CONFIG --fault silent:3@1000 --fault corrupt:2:0.02     # scripted faults (hil_sim.lockstep)
+    hil-sim configs/leg_hil.toml                                    # the leg board on a pty (--transport serial)
 
 The drives are those of the configuration's ``mit_can`` devices (ids, models, mounting: the
 same layout the driver reads); devices naming the same bus options share a bus (a socketcand
@@ -19,6 +20,12 @@ Stdout, one JSON object per line: first where it listens, e.g.
 {"HIL_SIM_TTY": "/dev/pts/5"}}`` — ``env`` holds the variables the configuration's bus
 options name as ``${VAR}`` (set them for ``rtctl run``) — then events (motors on/off, faults),
 and on SIGTERM/SIGINT a last ``{"event": "exit", …}`` with every drive's state and counters.
+
+A configuration whose device is a ``leg_board`` gets the prosthetic leg instead: the leg plant
+(the ``[sim.leg]`` options if any) and the board's firmware behind a pty
+(:mod:`hil_sim.leg_serial`), announced as ``{"transport": "serial", "tty": …, "env":
+{"HIL_SIM_TTY": …}}``; faults ``silent:1@N`` (the board stops answering after N commands) and
+``drop@N`` (the pty closes).
 """
 from __future__ import annotations
 
@@ -156,6 +163,38 @@ def serve_slcan(args, hub, plans, buses) -> None:
         emit({**hub.summary(), "server": [a.counters for a in adapters]})
 
 
+def leg_board_device(path: Path):
+    """The configuration's ``leg_board`` device table, or None."""
+    for d in load_toml(path).tables("devices", []):
+        if d.data.get("driver") == "leg_board":
+            return d
+    return None
+
+
+def serve_leg(args, path: Path, device) -> int:
+    from hil_sim.leg_plant import LegParams, LegPlant
+    from hil_sim.leg_serial import LegBoardServer
+
+    t = load_toml(path)
+    loop = t.table("loop", None)
+    period = 1.0 / (loop.float("rate_hz", 1000.0, positive=True) if loop is not None else 1000.0)
+    sim = t.table("sim", None)
+    leg = sim.table("leg", Table({}, path, "sim.leg")) if sim is not None else Table({}, path, "sim.leg")
+    plant = LegPlant(LegParams.from_table(leg))
+    server = LegBoardServer(plant, period, args.realtime_factor, args.drive_timeout_ms / 1e3 * 2.5, emit)
+    server.faults = [ScriptedFault.parse(s) for s in args.fault]
+    port = device.data.get("port", "")
+    info = {"transport": "serial", "tty": server.path, "period": period,
+            "env": {name: server.path for name in env_names({"port": port}, "port")}}
+    _stop_on_signals(server.shutdown)
+    emit(info)
+    try:
+        server.serve_forever()
+    finally:
+        emit(server.summary())
+    return 0
+
+
 def _stop_on_signals(stop) -> None:
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop())
@@ -165,7 +204,8 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="hil-sim", description=__doc__.split("\n\n")[0],
                                 epilog=__doc__.split("\n\n", 1)[1], formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("config", help="run configuration (TOML) whose robot and CAN devices to play")
-    p.add_argument("--transport", choices=("socketcand", "slcan"), help="default: the configuration's bus interface")
+    p.add_argument("--transport", choices=("socketcand", "slcan", "serial"),
+                   help="default: the configuration's bus interface (serial for a leg board)")
     p.add_argument("--host", default="127.0.0.1", help="socketcand: address to listen on (loopback)")
     p.add_argument("--port", type=int, help="socketcand: TCP port (default: the configuration's, else a free one)")
     p.add_argument("--realtime-factor", type=float, default=0.0, metavar="F",
@@ -183,6 +223,11 @@ def main(argv=None) -> int:
     try:
         for spec in args.fault:
             ScriptedFault.parse(spec)
+        leg = leg_board_device(Path(args.config))
+        if leg is not None or args.transport == "serial":
+            if leg is None:
+                raise RtctlError(f"{args.config}: --transport serial serves a leg board; no device has driver 'leg_board'")
+            return serve_leg(args, Path(args.config), leg)
         hub, plans, buses = build(args)
     except (RtctlError, ValueError) as e:
         print(f"hil-sim: {e}", file=sys.stderr)

@@ -114,10 +114,11 @@ def _parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
-                                        "control-socket", "safety", "trajectory"),
+                                        "control-socket", "safety", "trajectory", "leg"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
                             "PUMA 560; loop-timing: an empty loop (like cyclictest); can: codec and transports; "
-                            "control: the Slotine–Li laws and arma_gmv; telemetry, control-socket, safety, trajectory: their per-tick costs")
+                            "control: the Slotine–Li laws and arma_gmv; telemetry, control-socket, safety, trajectory: their per-tick costs; "
+                            "leg: the leg automaton's gates + circuit per tick and the leg board codec")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
     bench.add_argument("--config", default=None, help="run configuration for `bench loop` (default: the shipped one)")
@@ -125,6 +126,10 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--seconds", type=float, default=10.0, help="duration for `bench loop` (s)")
 
     sub.add_parser("doctor", help="report this machine's real-time readiness and what to change")
+
+    from rtctl.logic.cli import add_parser as add_leg_parser
+
+    add_leg_parser(sub)
     return p
 
 
@@ -195,6 +200,10 @@ def _dispatch(args) -> int:
         from rtctl.commands import bench
 
         return bench(args)
+    if args.command == "leg":
+        from rtctl.logic.cli import leg_command
+
+        return leg_command(args)
     if args.command == "doctor":
         from rtctl.commands import doctor
 

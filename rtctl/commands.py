@@ -139,7 +139,7 @@ def bench(args) -> int:
         from rtctl.bench.control_socket import bench_control_socket as run, format_table
 
         result = run()
-    elif args.what in ("safety", "trajectory"):
+    elif args.what in ("safety", "trajectory", "leg"):
         from importlib import import_module
 
         module = import_module(f"rtctl.bench.{args.what}")
