@@ -1,0 +1,116 @@
+"""What every CAN joint driver shares (``mit_can``, ``cia402``): the link to one bus — opened,
+lost, reopened — its bus-load budget, and the rare events and counters of the run summary.
+
+A bus error → the device reports ERROR, the bus is closed and reopened every
+``reconnect_interval`` for ``reconnect_timeout`` s (then it stays ERROR). Events (bus lost /
+back, drives off, a fault state) are logged once per episode and kept (the last 100) for the
+summary.
+"""
+from __future__ import annotations
+
+import socket
+import time
+
+import can
+import structlog
+
+from drivers.can_bus import BusBudget, BusOptions, read_bus_options
+from rtctl.errors import HardwareError
+from rtctl.hal import JointGroup, Status
+
+log = structlog.get_logger("rtctl.can")
+
+
+class CanJointGroup(JointGroup):
+    """Joint drives on one CAN bus. Subclasses add their protocol and their counters."""
+
+    # the ``bus`` options reader, for code that reaches a driver class through the registry
+    read_bus_options = staticmethod(read_bus_options)
+
+    def __init__(self, name: str, joint_names, bus: BusOptions, *, reconnect_timeout: float = 2.0,
+                 reconnect_interval: float = 0.05):
+        super().__init__(name, joint_names)
+        self.bus_options = bus
+        self.reconnect_timeout, self.reconnect_interval = reconnect_timeout, reconnect_interval
+        self.bus = None
+        self.budget: BusBudget | None = None  # set by from_config on the run's first CAN device
+        self._t_loop = 0.0  # loop time of the last read/write (for events)
+        self._lost_at: float | None = None  # monotonic time the bus was lost
+        self._next_attempt = 0.0
+        self.counters = {"cycles": 0, "missing_replies": 0, "malformed_replies": 0, "foreign_frames": 0,
+                         "error_frames": 0, "bus_errors": 0, "reconnects": 0}
+        self.events: list[dict] = []  # rare: bus lost / back, drives assumed off, fault states
+        self._last_event: str | None = None  # so a fault state is reported once, not every tick
+
+    def bus_budget(self, rate_hz: float) -> list[str]:
+        """The CAN bus-load table for ``rtctl check`` (printed once, by the run's first CAN device)."""
+        return [] if self.budget is None else self.budget.lines(rate_hz)
+
+    # -- the link ------------------------------------------------------------------------
+    def _open(self) -> None:
+        kw = self.bus_options.kwargs
+        try:
+            if kw["interface"] == "socketcand":
+                # python-can retries a refused connection for 10 s in a busy loop: look first
+                socket.create_connection((kw["host"], kw["port"]), timeout=0.2).close()
+            self.bus = can.Bus(**kw)
+        except Exception as e:
+            self.bus = None
+            raise HardwareError(f"{self.name}: cannot open CAN bus {self.bus_options.label} "
+                                f"({kw['interface']}): {type(e).__name__}: {e}") from e
+
+    def _close_bus(self) -> None:
+        bus, self.bus = self.bus, None
+        if bus is not None:
+            try:
+                bus.shutdown()
+            except Exception:
+                pass
+
+    def _lost(self, e: Exception) -> Status:
+        self.counters["bus_errors"] += 1
+        self.last_error = f"bus {self.bus_options.label}: {type(e).__name__}: {e}"
+        self._close_bus()
+        self._lost_at = time.monotonic()
+        self._next_attempt = self._lost_at + self.reconnect_interval
+        self._event("bus_lost", self.last_error)
+        return Status.ERROR
+
+    def _reconnect(self) -> bool:
+        now = time.monotonic()
+        if self._lost_at is None or now - self._lost_at > self.reconnect_timeout or now < self._next_attempt:
+            return False
+        self._next_attempt = now + self.reconnect_interval
+        try:
+            self._open()
+        except HardwareError as e:
+            self.last_error = str(e)
+            return False
+        self.counters["reconnects"] += 1
+        self._event("bus_back", f"reopened after {now - self._lost_at:.3f} s")
+        return True
+
+    # -- hooks and bookkeeping -------------------------------------------------------------
+    def _after_send(self) -> None:
+        """Called right after frames were sent (an in-process simulator answers here)."""
+
+    def _clock(self) -> float:
+        """The clock the drives' watchdogs run on."""
+        return time.monotonic()
+
+    def _event(self, kind: str, reason: str, **fields) -> None:
+        event = {"event": kind, "reason": reason, "t": self._t_loop, "clock": self._clock(), **fields}
+        self._last_event = kind
+        if len(self.events) < 100:
+            self.events.append(event)
+        log.warning(kind, device=self.name, **{k: v for k, v in event.items() if k != "event"})
+
+    def _report(self, kind: str, reason: str, **fields) -> None:
+        """A fault state's first tick: remember it as the last error and log it."""
+        self.last_error = reason
+        self._event(kind, reason, **fields)
+
+    def diagnostics(self) -> dict:
+        d = super().diagnostics()
+        d.update(bus=self.bus_options.label, counters=dict(self.counters), events=self.events[-20:])
+        return d

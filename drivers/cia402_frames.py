@@ -1,0 +1,132 @@
+"""The frames of the ``cia402`` driver's SYNC cycle, mixed into :class:`~drivers.cia402_joints.Cia402JointGroup`:
+RPDOs packed into preallocated messages, one SYNC, and every received frame routed by COB-ID
+into preallocated arrays — TPDO values, EMCY codes, heartbeat times and NMT states."""
+from __future__ import annotations
+
+import time
+
+import can
+import numpy as np
+
+from drivers.protocols import cia402 as c
+
+TPDO, EMCY, HEARTBEAT = range(3)
+
+
+class Cia402Frames:
+    def _init_frames(self, joints, layout) -> None:
+        n = len(joints)
+        self._values = np.zeros((n, len(c.STATE_FIELDS)))  # raw statusword, position, velocity, torque
+        self._rows = [self._values[r] for r in range(n)]
+        self._statusword = np.zeros(n, dtype=np.int64)
+        self._sw_tmp = np.zeros(n, dtype=np.int64)
+        self._fresh = np.zeros(n, dtype=bool)  # every TPDO of the drive arrived in the last cycle
+        self._got = [0] * n  # per drive: bit k set when TPDO k arrived in this cycle
+        self._all_tpdos = (1 << len(layout.tpdos)) - 1
+        self._emcy = np.zeros(n, dtype=np.int64)  # active EMCY code per drive (0: none)
+        self._heartbeat_at = np.zeros(n)  # clock time of the last heartbeat
+        self._nmt_state = np.full(n, c.NMT_OPERATIONAL, dtype=np.int64)
+        self._hb_late = np.zeros(n, dtype=bool)
+        self._command = [[0, 0] for _ in range(n)]  # controlword, target torque ‰ (COMMAND_FIELDS order)
+        self._rpdo_msgs = [[(pdo, can.Message(arbitration_id=pdo.cob_id(j.node_id), data=bytearray(pdo.length),
+                                              is_extended_id=False)) for pdo in layout.rpdos] for j in joints]
+        self._sync_msg = can.Message(arbitration_id=c.SYNC, data=bytearray(), is_extended_id=False)
+        self._route = {}  # COB-ID → (kind, row, pdo, bit): preallocated, looked up per frame
+        for row, j in enumerate(joints):
+            for k, pdo in enumerate(layout.tpdos):
+                self._route[pdo.cob_id(j.node_id)] = (TPDO, row, pdo, 1 << k)
+            self._route[c.EMCY_BASE + j.node_id] = (EMCY, row, None, 0)
+            self._route[c.HEARTBEAT_BASE + j.node_id] = (HEARTBEAT, row, None, 0)
+
+    # -- RPDOs ------------------------------------------------------------------------------
+    def _pack(self, controlword: int, permille) -> None:
+        """Every drive's RPDOs: ``controlword`` and its torque ``permille[row]`` (whole numbers)."""
+        command, msgs = self._command, self._rpdo_msgs
+        for row in range(len(command)):
+            cmd = command[row]
+            cmd[0] = controlword
+            cmd[1] = int(permille[row])
+            for pdo, msg in msgs[row]:
+                pdo.pack_into(msg.data, cmd)
+
+    def _pack_each(self, controlword) -> None:
+        """Every drive's RPDOs with ``controlword(row, statusword)`` and zero torque."""
+        for row, cmd in enumerate(self._command):
+            cmd[0] = controlword(row, int(self._statusword[row]))
+            cmd[1] = 0
+            for pdo, msg in self._rpdo_msgs[row]:
+                pdo.pack_into(msg.data, cmd)
+
+    # -- one SYNC cycle -----------------------------------------------------------------------
+    def _cycle(self, timeout: float) -> int:
+        """Take what arrived since the last cycle, send the RPDOs and a SYNC, collect the TPDOs
+        for up to ``timeout`` s; returns how many drives did not send all of theirs."""
+        bus = self.bus
+        while (msg := bus.recv(0.0)) is not None:  # EMCY, heartbeats, a late TPDO: before our SYNC
+            self._take(msg, late=True)
+        for msgs in self._rpdo_msgs:
+            for _, msg in msgs:
+                bus.send(msg)
+        bus.send(self._sync_msg)
+        self._after_send()
+        return self._collect(timeout)
+
+    def _collect(self, timeout: float) -> int:
+        bus, got = self.bus, self._got
+        for row in range(len(got)):
+            got[row] = 0
+        pending = len(got) * self._all_tpdos.bit_count()
+        end = time.monotonic() + timeout
+        while pending:
+            remaining = end - time.monotonic()
+            msg = bus.recv(remaining if remaining > 0.0 else 0.0)
+            if msg is None:
+                if remaining <= 0.0:
+                    break
+                continue  # (slcan: a transmit acknowledgement reads as None)
+            pending -= self._take(msg)
+        full, fresh = self._all_tpdos, self._fresh
+        for row in range(len(got)):
+            fresh[row] = got[row] == full
+        np.copyto(self._statusword, self._values[:, 0], casting="unsafe")
+        return len(got) - int(np.count_nonzero(fresh))
+
+    def _take(self, msg, late: bool = False) -> int:
+        """Route one received frame; 1 when it is a TPDO this cycle still waited for, else 0."""
+        if msg.is_error_frame:
+            self.counters["error_frames"] += 1
+            return 0
+        route = None if msg.is_extended_id or msg.is_remote_frame else self._route.get(msg.arbitration_id)
+        if route is None:
+            self.counters["foreign_frames"] += 1  # other nodes, SDO answers after their timeout …
+            return 0
+        kind, row, pdo, bit = route
+        data = msg.data
+        if kind == TPDO:
+            if len(data) != pdo.length:
+                self.counters["malformed_replies"] += 1
+                return 0
+            pdo.unpack_into(data, self._rows[row])  # the newest values win
+            if late:
+                self.counters["late_replies"] += 1
+                return 0
+            got = self._got[row]
+            if got & bit:
+                return 0
+            self._got[row] = got | bit
+            return 1
+        if kind == EMCY:
+            code = c.emcy_code(data)
+            if code is None:
+                self.counters["malformed_replies"] += 1
+                return 0
+            self.counters["emcy"] += 1
+            self._emcy[row] = code if code & 0xFF00 else 0  # 0x00xx: error reset / no error
+            return 0
+        if len(data) != 1:
+            self.counters["malformed_replies"] += 1
+            return 0
+        self.counters["heartbeats"] += 1
+        self._nmt_state[row] = data[0] & 0x7F
+        self._heartbeat_at[row] = self._clock()
+        return 0
