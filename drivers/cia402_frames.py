@@ -19,14 +19,15 @@ class Cia402Frames:
         self._values = np.zeros((n, len(c.STATE_FIELDS)))  # raw statusword, position, velocity, torque
         self._rows = [self._values[r] for r in range(n)]
         self._statusword = np.zeros(n, dtype=np.int64)
-        self._sw_tmp = np.zeros(n, dtype=np.int64)
+        self._not_enabled = 0  # drives whose last statusword is not OPERATION ENABLED
         self._fresh = np.zeros(n, dtype=bool)  # every TPDO of the drive arrived in the last cycle
         self._got = [0] * n  # per drive: bit k set when TPDO k arrived in this cycle
         self._all_tpdos = (1 << len(layout.tpdos)) - 1
         self._emcy = np.zeros(n, dtype=np.int64)  # active EMCY code per drive (0: none)
+        self._emcy_active = False
         self._heartbeat_at = np.zeros(n)  # clock time of the last heartbeat
-        self._nmt_state = np.full(n, c.NMT_OPERATIONAL, dtype=np.int64)
-        self._hb_late = np.zeros(n, dtype=bool)
+        self._nmt_state = np.full(n, c.NMT_OPERATIONAL, dtype=np.int64)  # from the last heartbeat
+        self._nmt_bad = False  # a node's heartbeat says it is not OPERATIONAL
         self._command = [[0, 0] for _ in range(n)]  # controlword, target torque ‰ (COMMAND_FIELDS order)
         self._rpdo_msgs = [[(pdo, can.Message(arbitration_id=pdo.cob_id(j.node_id), data=bytearray(pdo.length),
                                               is_extended_id=False)) for pdo in layout.rpdos] for j in joints]
@@ -85,11 +86,17 @@ class Cia402Frames:
                     break
                 continue  # (slcan: a transmit acknowledgement reads as None)
             pending -= self._take(msg)
-        full, fresh = self._all_tpdos, self._fresh
+        full, fresh, rows, sw = self._all_tpdos, self._fresh, self._rows, self._statusword
+        missing = not_enabled = 0
         for row in range(len(got)):
-            fresh[row] = got[row] == full
-        np.copyto(self._statusword, self._values[:, 0], casting="unsafe")
-        return len(got) - int(np.count_nonzero(fresh))
+            ok = got[row] == full
+            fresh[row] = ok
+            missing += not ok
+            word = int(rows[row][0])
+            sw[row] = word
+            not_enabled += word & c.OE_MASK != c.OE_VALUE
+        self._not_enabled = not_enabled
+        return missing
 
     def _take(self, msg, late: bool = False) -> int:
         """Route one received frame; 1 when it is a TPDO this cycle still waited for, else 0."""
@@ -122,11 +129,13 @@ class Cia402Frames:
                 return 0
             self.counters["emcy"] += 1
             self._emcy[row] = code if code & 0xFF00 else 0  # 0x00xx: error reset / no error
+            self._emcy_active = bool(self._emcy.any())
             return 0
         if len(data) != 1:
             self.counters["malformed_replies"] += 1
             return 0
         self.counters["heartbeats"] += 1
         self._nmt_state[row] = data[0] & 0x7F
+        self._nmt_bad = bool((self._nmt_state != c.NMT_OPERATIONAL).any())
         self._heartbeat_at[row] = self._clock()
         return 0

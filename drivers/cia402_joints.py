@@ -95,6 +95,7 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         self._stale = np.zeros(n, dtype=np.int64)
         self._zeros_i = np.zeros(n, dtype=np.int64)
         self._tmp, self._tau = np.zeros(n), np.zeros(n)
+        self._hb_late = np.zeros(n, dtype=bool)
         self._missing_since = np.full(n, np.nan)
         self._nans = np.full(n, np.nan)
         self._stamp = 0.0
@@ -177,6 +178,7 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
             self._nmt("OPERATIONAL")  # (again: a drive may have rebooted, or a reset follows a stop)
             self._heartbeat_at.fill(self._clock())
             self._nmt_state.fill(c.NMT_OPERATIONAL)  # (what we just commanded; their heartbeats confirm it)
+            self._nmt_bad, self._emcy_active = False, False
             self._emcy.fill(0)
             self._cycle_until(self._towards_operation, c.is_operation_enabled, "reach OPERATION ENABLED")
         except Exception:
@@ -219,11 +221,9 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         self._t_loop = t
         s, v, tmp, fresh, stale = self.state, self._values, self._tmp, self._fresh, self._stale
         active = self.lifecycle is Lifecycle.ACTIVE
-        if active:  # the heartbeat consumer: a silent or restarted node is stale
-            np.subtract(self._clock(), self._heartbeat_at, out=tmp)
-            np.greater(tmp, self.heartbeat_timeout, out=self._hb_late)
-            np.logical_or(self._hb_late, self._nmt_state != c.NMT_OPERATIONAL, out=self._hb_late)
-            np.logical_and(fresh, ~self._hb_late, out=fresh)
+        silent = active and self._heartbeats_missing()
+        if silent:
+            np.logical_and(fresh, ~self._hb_late, out=fresh)  # (rare path)
         np.multiply(v[:, POS], self._rad, out=tmp)
         tmp += self._offset
         np.copyto(s.position, tmp, where=fresh)
@@ -240,21 +240,31 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
             return Status.ERROR
         if self._drives_off is not None:
             return Status.DEACTIVATE
-        return self._health(active)
+        return self._health(active, silent)
 
-    def _health(self, active: bool) -> Status:
+    def _heartbeats_missing(self) -> bool:
+        """The heartbeat consumer: True (and ``_hb_late`` set) when a node's heartbeat is overdue
+        or says it is not OPERATIONAL (a restart, an NMT change)."""
+        if self._clock() - self._heartbeat_at.min() <= self.heartbeat_timeout and not self._nmt_bad:
+            return False
+        late = self._clock() - self._heartbeat_at > self.heartbeat_timeout
+        np.logical_or(late, self._nmt_state != c.NMT_OPERATIONAL, out=self._hb_late)
+        return True
+
+    def _health(self, active: bool, silent: bool) -> Status:
         """The device's status from the drives' reports (a fault state logged once per episode)."""
-        if active and self._hb_late.any():
+        if silent:
             if self._last_event != "heartbeat":
-                self._report("heartbeat", f"no heartbeat of node(s) {self._ids(self._hb_late)} (NMT state "
-                                          f"{self._nmt_state.tolist()}, timeout {self.heartbeat_timeout:g} s)")
+                self._report("heartbeat", f"no heartbeat from node(s) {self._ids(self._hb_late)} within "
+                                          f"{self.heartbeat_timeout:g} s, or not OPERATIONAL (NMT states "
+                                          f"{self._nmt_state.tolist()})")
             return Status.ERROR
         if self._stale.max() >= self.stale_limit:
             if self._last_event != "stale":
                 self._report("stale", f"no TPDOs from node(s) {self._ids(self._stale >= self.stale_limit)} for "
                                       f"{self.stale_limit} ticks", missing_since=float(np.nanmin(self._missing_since)))
             return Status.ERROR
-        if self._emcy.any():
+        if self._emcy_active:
             if self._last_event != "drive_fault":
                 row = int(np.flatnonzero(self._emcy)[0])
                 code = int(self._emcy[row])
@@ -263,13 +273,11 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
                              drive=self.joints[row].node_id, code=code,
                              codes=dict(zip(self.joint_names, self._emcy.tolist())))
             return Status.ERROR
-        if active:
-            np.bitwise_and(self._statusword, c.OE_MASK, out=self._sw_tmp)
-            if (self._sw_tmp != c.OE_VALUE).any():
-                if self._last_event != "not_enabled":
-                    states = {j.name: c.state_of(int(w)) for j, w in zip(self.joints, self._statusword)}
-                    self._report("not_enabled", f"drive(s) left OPERATION ENABLED: {states}")
-                return Status.ERROR
+        if active and self._not_enabled:
+            if self._last_event != "not_enabled":
+                states = {j.name: c.state_of(int(w)) for j, w in zip(self.joints, self._statusword)}
+                self._report("not_enabled", f"drive(s) left OPERATION ENABLED: {states}")
+            return Status.ERROR
         self._last_event = None  # healthy again: the next fault state is a new episode
         return Status.OK
 
