@@ -59,9 +59,10 @@ class Cia402Frames:
                 pdo.pack_into(msg.data, cmd)
 
     # -- one SYNC cycle -----------------------------------------------------------------------
-    def _cycle(self, timeout: float) -> int:
+    def _cycle(self, timeout: float, rows=None) -> int:
         """Take what arrived since the last cycle, send the RPDOs and a SYNC, collect the TPDOs
-        for up to ``timeout`` s; returns how many drives did not send all of theirs."""
+        for up to ``timeout`` s — of the drives in ``rows`` (a mask; default all); returns how many
+        drives did not send all of theirs."""
         bus = self.bus
         while (msg := bus.recv(0.0)) is not None:  # EMCY, heartbeats, a late TPDO: before our SYNC
             self._take(msg, late=True)
@@ -70,13 +71,14 @@ class Cia402Frames:
                 bus.send(msg)
         bus.send(self._sync_msg)
         self._after_send()
-        return self._collect(timeout)
+        return self._collect(timeout, rows)
 
-    def _collect(self, timeout: float) -> int:
+    def _collect(self, timeout: float, rows=None) -> int:
         bus, got = self.bus, self._got
         for row in range(len(got)):
             got[row] = 0
-        pending = len(got) * self._all_tpdos.bit_count()
+        awaited = len(got) if rows is None else int(np.count_nonzero(rows))
+        pending = awaited * self._all_tpdos.bit_count()
         end = time.monotonic() + timeout
         while pending:
             remaining = end - time.monotonic()
@@ -85,7 +87,7 @@ class Cia402Frames:
                 if remaining <= 0.0:
                     break
                 continue  # (slcan: a transmit acknowledgement reads as None)
-            pending -= self._take(msg)
+            pending -= self._take(msg, rows=rows)
         full, fresh, rows, sw = self._all_tpdos, self._fresh, self._rows, self._statusword
         missing = not_enabled = 0
         for row in range(len(got)):
@@ -98,8 +100,9 @@ class Cia402Frames:
         self._not_enabled = not_enabled
         return missing
 
-    def _take(self, msg, late: bool = False) -> int:
-        """Route one received frame; 1 when it is a TPDO this cycle still waited for, else 0."""
+    def _take(self, msg, late: bool = False, rows=None) -> int:
+        """Route one received frame; 1 when it is a TPDO this cycle still waited for (of a drive
+        in ``rows``), else 0."""
         if msg.is_error_frame:
             self.counters["error_frames"] += 1
             return 0
@@ -121,7 +124,7 @@ class Cia402Frames:
             if got & bit:
                 return 0
             self._got[row] = got | bit
-            return 1
+            return 1 if rows is None or rows[row] else 0
         if kind == EMCY:
             code = c.emcy_code(data)
             if code is None:

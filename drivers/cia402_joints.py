@@ -195,13 +195,21 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         self._disable_all(raise_errors=True)
 
     def _disable_all(self, raise_errors: bool = False) -> None:
+        """*Disable voltage* until every drive that still answers confirms. Not awaited: a drive
+        silent before (its own RPDO deadline turns it off once our RPDOs stop), and any drive
+        longer than half that deadline — the next device on the loop must not starve past its
+        drives' deadlines while this one waits."""
+        reachable = self._stale == 0
         try:
             self._cycle_until(lambda row, sw: c.CW_DISABLE_VOLTAGE, lambda sw: c.state_of(sw) in DISABLED,
-                              "disable (SWITCH ON DISABLED)")
+                              "disable (SWITCH ON DISABLED)", rows=reachable, budget=self.drive_timeout / 2)
         except Exception as e:
             self.last_error = f"disable: {e}"
             if raise_errors:
                 raise
+        if not reachable.all():
+            self._event("unreachable", f"node(s) {self._ids(~reachable)} silent at deactivate: their RPDO deadline "
+                                       f"({1e3 * self.drive_timeout:g} ms) turns them off")
 
     def _on_close(self) -> None:
         if self.bus is not None and self.network is not None:
@@ -317,28 +325,32 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         self._stamp = t
         return Status.DEACTIVATE if self._drives_off is not None else Status.OK
 
-    def _cycle_until(self, controlword, done, what: str) -> None:
+    def _cycle_until(self, controlword, done, what: str, rows=None, budget: float | None = None) -> None:
         """SYNC cycles with ``controlword(row, statusword)`` and zero torque until ``done(statusword)``
-        for every drive (HardwareError naming the others after ``exchange_timeout``)."""
+        for every drive (of ``rows``, a mask), within ``budget`` s (default ``exchange_timeout``);
+        HardwareError naming the others."""
         if self.bus is None:
             raise HardwareError(f"{self.name}: {what}: the bus is not open")
-        end = time.monotonic() + self.exchange_timeout
+        budget = self.exchange_timeout if budget is None else budget
+        rows = np.ones(len(self.joints), dtype=bool) if rows is None else rows
+        end = time.monotonic() + budget
         for _ in range(STATE_MACHINE_CYCLES):
             self._pack_each(controlword)
             try:
-                self._cycle(max(0.0, end - time.monotonic()))
+                self._cycle(max(0.0, end - time.monotonic()), rows)
             except Exception as e:
                 self._close_bus()
                 raise HardwareError(f"{self.name}: {what}: bus error: {type(e).__name__}: {e}") from e
             self._stamp = self._clock()
-            if self._fresh.all() and all(done(int(w)) for w in self._statusword):
+            ok = [not r or (f and done(int(w))) for r, f, w in zip(rows, self._fresh, self._statusword)]
+            if all(ok):
                 return
             if time.monotonic() > end:
                 break
-        late = [f"{j.node_id:#x} ({c.state_of(int(w)) if ok else 'no TPDO'})"
-                for j, w, ok in zip(self.joints, self._statusword, self._fresh) if not (ok and done(int(w)))]
+        late = [f"{j.node_id:#x} ({c.state_of(int(w)) if f else 'no TPDO'})"
+                for j, w, f, good in zip(self.joints, self._statusword, self._fresh, ok) if not good]
         raise HardwareError(f"{self.name}: drive(s) {', '.join(late)} did not {what} within "
-                            f"{self.exchange_timeout:g} s on {self.bus_options.label} (power, ids, bitrate, termination?)")
+                            f"{budget:g} s on {self.bus_options.label} (power, ids, bitrate, termination?)")
 
     def _ids(self, mask) -> str:
         return ", ".join(f"{j.node_id:#x}" for j, m in zip(self.joints, mask) if m)

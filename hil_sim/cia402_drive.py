@@ -273,11 +273,13 @@ class Cia402DriveBus(DriveBus):
     """The CiA 402 drives on one CAN bus. SYNC and NMT go to every drive, an RPDO or SDO request
     to its drive; what the drives send leaves at once, the heartbeats when due. A SYNC completes
     a command cycle (every drive applied its RPDO): for a lock-step plant, it commands the
-    drives when one of them is operation enabled (a disabled robot rests on its brakes)."""
+    drives when one of them was operation enabled before it and still is — a torque cycle, not
+    a step of the state machine on the way up or down (a disabled robot rests on its brakes)."""
 
     def __init__(self, drives, name: str = "can0", advance: Callable[[float], None] | None = None,
                  max_staleness: float = 0.001):
         super().__init__(drives, name, advance, max_staleness)
+        self._torque_cycle = False  # the last SYNC found a drive enabled, and left it so
         self._route = {}
         for d in drives:
             for cob in (*d._rpdo_of, c.SDO_RX_BASE + d.drive_id):
@@ -287,11 +289,15 @@ class Cia402DriveBus(DriveBus):
         if is_extended:
             self.ignored += 1
             return
-        if arbitration_id in (c.SYNC, c.NMT):
+        if arbitration_id == c.SYNC:
+            was = [d.enabled for d in self.drives.values()]
             for d in self.drives.values():
                 d.receive(arbitration_id, data, now)
-            if arbitration_id == c.SYNC:
-                self._addressed(now, len(self.drives))
+            self._torque_cycle = any(w and d.enabled for w, d in zip(was, self.drives.values()))
+            self._addressed(now, len(self.drives))
+        elif arbitration_id == c.NMT:
+            for d in self.drives.values():
+                d.receive(arbitration_id, data, now)
         else:
             d = self._route.get(arbitration_id)
             if d is None:
@@ -301,7 +307,7 @@ class Cia402DriveBus(DriveBus):
         self._flush(now, out)
 
     def commanded_by(self, arbitration_id: int, data, is_extended: bool = False) -> tuple:
-        if is_extended or arbitration_id != c.SYNC or not any(d.enabled for d in self.drives.values()):
+        if is_extended or arbitration_id != c.SYNC or not self._torque_cycle:
             return ()
         return tuple(self.drives)
 

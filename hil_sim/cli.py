@@ -11,8 +11,9 @@ The drives are those of the configuration's ``mit_can`` and ``cia402`` devices (
 EDS and scaling, mounting: the same layout the driver reads); devices naming the same bus
 options share a bus (a socketcand channel, or a pty), one protocol per bus. A configuration
 without CAN devices (an embedded ``[sim]`` one) gets the embedded CAN simulator's MIT drives on
-one bus ``can0``. ``--drive-timeout-ms`` is the MIT drives' watchdog; a CiA 402 drive's RPDO
-deadline is what the driver configures (0x1400 sub 5). Plant options: the ``[sim]``
+one bus ``can0``. The MIT drives' watchdog is their device's ``drive_timeout`` (20 ms by
+default; ``--drive-timeout-ms`` overrides it); a CiA 402 drive's RPDO deadline is what the
+driver configures (0x1400 sub 5). Plant options: the ``[sim]``
 table when there is one, else its defaults.
 
 Stdout, one JSON object per line: first where it listens, e.g.
@@ -57,6 +58,7 @@ class BusPlan:
         self.raw, self.name, self.driver = raw, name, driver
         self.layout: list = []  # (MitJoint or Cia402Joint, plant index)
         self.master_id = 0
+        self.drive_timeout = 0.02  # mit_can: the drives' watchdog (the device's drive_timeout)
         self.eds = None  # cia402: the drives' EDS
 
 
@@ -89,6 +91,7 @@ def plan(path: Path):
             bus.layout += zip(read_cia402_joints(d, joint_names), indices)
         else:
             bus.master_id = read_master_id(d)
+            bus.drive_timeout = d.float("drive_timeout", 0.02, positive=True)
             bus.layout += zip(read_mit_joints(d, joint_names), indices)
     if not buses:
         indices = tuple(range(model.nq))
@@ -119,7 +122,8 @@ def build(args):
         if p.driver == "cia402":
             buses.append(HubCia402Bus(emulated_cia402_drives(joints, indices, plant, eds=p.eds), p.name, hub))
         else:
-            drives = emulated_drives(joints, indices, plant, timeout_s=args.drive_timeout_ms / 1e3, master_id=p.master_id)
+            timeout = p.drive_timeout if args.drive_timeout_ms is None else args.drive_timeout_ms / 1e3
+            drives = emulated_drives(joints, indices, plant, timeout_s=timeout, master_id=p.master_id)
             buses.append(HubDriveBus(drives, p.name, hub))
     return hub, plans, buses
 
@@ -188,8 +192,9 @@ def main(argv=None) -> int:
     p.add_argument("--port", type=int, help="socketcand: TCP port (default: the configuration's, else a free one)")
     p.add_argument("--realtime-factor", type=float, default=0.0, metavar="F",
                    help="0 (default): lock-step, one period per command set; F > 0: free-running at F × wall clock")
-    p.add_argument("--drive-timeout-ms", type=float, default=20.0,
-                   help="the MIT drives' command watchdog (a CiA 402 drive's deadline is configured by the driver)")
+    p.add_argument("--drive-timeout-ms", type=float, default=None,
+                   help="the MIT drives' command watchdog (default: their device's drive_timeout, else 20 ms; "
+                        "a CiA 402 drive's deadline is configured by the driver)")
     p.add_argument("--fault", action="append", default=[], metavar="SPEC",
                    help="silent:ID | corrupt:ID:RATE | error:ID:CODE | drop, ID as N or BUS/N, optional @CYCLES")
     p.add_argument("--no-ack", action="store_true", help="slcan: do not acknowledge transmits (z/Z)")
