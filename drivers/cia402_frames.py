@@ -40,13 +40,18 @@ class Cia402Frames:
             self._route[c.HEARTBEAT_BASE + j.node_id] = (HEARTBEAT, row, None, 0)
 
     # -- RPDOs ------------------------------------------------------------------------------
-    def _pack(self, controlword: int, permille) -> None:
-        """Every drive's RPDOs: ``controlword`` and its torque ``permille[row]`` (whole numbers)."""
-        command, msgs = self._command, self._rpdo_msgs
+    def _pack(self, permille) -> None:
+        """Every drive's RPDOs while active: its torque ``permille[row]`` (whole numbers) with
+        *enable operation* — or *disable voltage* and no torque to a drive whose last statusword
+        is not OPERATION ENABLED: a drive that fell out (its panel, a quick stop) is taken down,
+        not re-enabled behind the safety stage's back; only ``activate`` brings it back."""
+        command, msgs, sw = self._command, self._rpdo_msgs, self._statusword
         for row in range(len(command)):
             cmd = command[row]
-            cmd[0] = controlword
-            cmd[1] = int(permille[row])
+            if sw[row] & c.OE_MASK == c.OE_VALUE:
+                cmd[0], cmd[1] = c.CW_ENABLE_OPERATION, int(permille[row])
+            else:
+                cmd[0], cmd[1] = c.CW_DISABLE_VOLTAGE, 0
             for pdo, msg in msgs[row]:
                 pdo.pack_into(msg.data, cmd)
 

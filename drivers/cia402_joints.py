@@ -25,7 +25,7 @@ SYNC producer.
 
 Per tick, ``write()``: frames that arrived since the last cycle are taken first (EMCY,
 heartbeats, a late TPDO); then each drive's RPDO (controlword *enable operation*, target torque
-in ‰ of its rated torque), one SYNC, and the TPDOs are collected until every drive's arrived or
+in ‰ of its rated torque; *disable voltage* to a drive that fell out of OPERATION ENABLED), one SYNC, and the TPDOs are collected until every drive's arrived or
 ``reply_deadline × period`` passed — blocking in ``recv``. The drives apply the torque at the
 SYNC and report their state measured there; ``read()`` of the next tick publishes it (one
 period old, as with any SYNC-cyclic drive). Impedance commands are closed here, at the loop
@@ -311,7 +311,7 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         tau /= self._nm  # → ‰ of the rated torque, in the drive's direction
         np.rint(tau, out=tau)
         np.clip(tau, -32768, 32767, out=tau)
-        self._pack(c.CW_ENABLE_OPERATION, tau)
+        self._pack(tau)
         try:
             missing = self._cycle(self.reply_timeout)
         except Exception as e:

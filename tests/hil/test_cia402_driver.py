@@ -168,12 +168,19 @@ def test_an_emcy_is_a_fault_event_with_the_drives_code(rig):
     assert r.tick() == (Status.OK, Status.OK) and list(r.state.fault) == [0, 0]
 
 
-def test_a_drive_that_leaves_operation_enabled_is_an_error(rig):
+def test_a_drive_that_left_operation_enabled_gets_disable_voltage_and_no_torque(rig):
     r = rig()
     r.activate()
-    r.drive_list[0].apply_controlword(c.CW_DISABLE_VOLTAGE)  # e.g. its own panel
+    r.command.tau_ff[:] = 3.0
     r.tick()
-    assert r.tick()[0] == Status.ERROR and r.events[-1]["event"] == "not_enabled"
+    d = r.drive_list[0]
+    d.apply_controlword(c.CW_DISABLE_VOLTAGE)  # taken down by its own panel
+    r.tick()  # its TPDO reports SWITCH ON DISABLED …
+    statuses = [r.tick()[0] for _ in range(3)]
+    assert statuses == [Status.ERROR] * 3 and r.events[-1]["event"] == "not_enabled"
+    # … and from then on its RPDO carries disable voltage and no torque, the other's its torque
+    assert d._command == [c.CW_DISABLE_VOLTAGE, 0] and d.state == c.SWITCH_ON_DISABLED
+    assert r.drive_list[1]._command == [c.CW_ENABLE_OPERATION, -150]  # 3 N·m on 20 N·m, reversed
 
 
 def test_the_heartbeat_consumer_marks_a_silent_node_stale(rig):
