@@ -41,8 +41,6 @@ it is activated again.
 """
 from __future__ import annotations
 
-import time
-
 import can
 import numpy as np
 
@@ -66,12 +64,12 @@ class MitCanJointGroup(CanJointGroup):
                  reply_deadline: float = 0.6, stale_limit: int = 3, drive_timeout: float = 0.02,
                  exchange_timeout: float = 0.5, reconnect_timeout: float = 2.0, reconnect_interval: float = 0.05,
                  set_zero: bool = False):
-        super().__init__(name, [j.name for j in joints], bus, reconnect_timeout=reconnect_timeout,
-                         reconnect_interval=reconnect_interval)
+        super().__init__(name, [j.name for j in joints], bus, drive_timeout=drive_timeout,
+                         reconnect_timeout=reconnect_timeout, reconnect_interval=reconnect_interval)
         n = len(joints)
         self.joints, self.master_id = tuple(joints), master_id
         self.reply_timeout = reply_deadline * period
-        self.stale_limit, self.drive_timeout = stale_limit, drive_timeout
+        self.stale_limit = stale_limit
         self.exchange_timeout, self.set_zero_at_configure = exchange_timeout, set_zero
         self._models = [j.model for j in joints]
         self._row_of_key = [-1] * 256  # reply byte 0 → row
@@ -90,15 +88,8 @@ class MitCanJointGroup(CanJointGroup):
             self._replies[:, c] for c in (REPLY_POSITION, REPLY_VELOCITY, REPLY_EFFORT, REPLY_ERROR))
         self._got = np.zeros(n, dtype=bool)  # a reply since the last read
         self._cycle = np.zeros(n, dtype=bool)  # a reply in the current collection
-        self._stale = np.zeros(n, dtype=np.int64)
-        self._zeros_i = np.zeros(n, dtype=np.int64)
         self._tmp = np.zeros(n)
         self._p, self._v, self._tau, self._zero = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
-        self._stamp = 0.0
-        self._missing_since = np.full(n, np.nan)  # loop time of the first unanswered command in a row
-        self._nans = np.full(n, np.nan)
-        self._last_sent = -np.inf  # clock time of the last command (or enter motor mode) sent
-        self._drives_off: str | None = None  # why the drives must be assumed off (their watchdog)
 
     # -- configuration -------------------------------------------------------------------
     @classmethod
@@ -219,14 +210,8 @@ class MitCanJointGroup(CanJointGroup):
         return Status.OK
 
     def _write(self, t: float) -> Status:
-        self._t_loop = t
-        if self.bus is None and not self._reconnect():
+        if not self._start_write(t, "watchdog: their motors are off"):
             return Status.ERROR
-        now = self._clock()
-        if now - self._last_sent > self.drive_timeout and self._drives_off is None:
-            self._drives_off = (f"no command for {1e3 * (now - self._last_sent):.0f} ms, longer than the drives' "
-                                f"{1e3 * self.drive_timeout:g} ms watchdog: their motors are off")
-            self._event("drives_off", self._drives_off)
         c, p, v, tau = self.command, self._p, self._v, self._tau
         if c.mode:  # impedance: the drive closes kp (p − q) + kd (v − q̇) + t
             np.subtract(c.q_des, self._offset, out=p)
@@ -245,38 +230,26 @@ class MitCanJointGroup(CanJointGroup):
             bus = self.bus
             for m in messages:
                 bus.send(m)
-            self._last_sent = now
+            self._last_sent = self._clock()
             self._after_send()
             missing = self._collect(self.reply_timeout)
         except Exception as e:
             return self._lost(e)
-        self.counters["cycles"] += 1
-        if missing:
-            self.counters["missing_replies"] += missing
-            np.copyto(self._missing_since, t, where=~self._cycle & np.isnan(self._missing_since))  # (rare path)
-        np.copyto(self._missing_since, self._nans, where=self._cycle)
-        self._stamp = t
-        return Status.DEACTIVATE if self._drives_off is not None else Status.OK
+        return self._end_write(t, missing, self._cycle)
 
     # -- frames --------------------------------------------------------------------------
     def _collect(self, timeout: float) -> int:
         """Receive until every drive answered or ``timeout`` s passed; returns how many did not."""
-        bus, cycle = self.bus, self._cycle
-        cycle.fill(False)
-        pending = len(cycle)
-        end = time.monotonic() + timeout
-        while pending:
-            remaining = end - time.monotonic()
-            msg = bus.recv(remaining if remaining > 0.0 else 0.0)
-            if msg is None:
-                if remaining <= 0.0:
-                    break
-                continue  # (slcan: a transmit acknowledgement reads as None)
-            row = self._take(msg)
-            if row >= 0 and not cycle[row]:
-                cycle[row] = True
-                pending -= 1
-        return pending
+        self._cycle.fill(False)
+        return self._receive(len(self._cycle), timeout, self._take_reply)
+
+    def _take_reply(self, msg) -> int:
+        """1 when ``msg`` is the first reply of a drive in this collection, else 0."""
+        row = self._take(msg)
+        if row >= 0 and not self._cycle[row]:
+            self._cycle[row] = True
+            return 1
+        return 0
 
     def _take(self, msg) -> int:
         """Decode one received frame into the reply table; its row, or −1 when ignored."""

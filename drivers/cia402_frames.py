@@ -3,8 +3,6 @@ RPDOs packed into preallocated messages, one SYNC, and every received frame rout
 into preallocated arrays — TPDO values, EMCY codes, heartbeat times and NMT states."""
 from __future__ import annotations
 
-import time
-
 import can
 import numpy as np
 
@@ -22,6 +20,7 @@ class Cia402Frames:
         self._not_enabled = 0  # drives whose last statusword is not OPERATION ENABLED
         self._fresh = np.zeros(n, dtype=bool)  # every TPDO of the drive arrived in the last cycle
         self._got = [0] * n  # per drive: bit k set when TPDO k arrived in this cycle
+        self._awaited = None  # the drives this cycle waits for (a mask; None: all)
         self._all_tpdos = (1 << len(layout.tpdos)) - 1
         self._emcy = np.zeros(n, dtype=np.int64)  # active EMCY code per drive (0: none)
         self._emcy_active = False
@@ -75,24 +74,17 @@ class Cia402Frames:
             for _, msg in msgs:
                 bus.send(msg)
         bus.send(self._sync_msg)
+        self._last_sent = self._clock()
         self._after_send()
         return self._collect(timeout, rows)
 
     def _collect(self, timeout: float, rows=None) -> int:
-        bus, got = self.bus, self._got
+        got = self._got
         for row in range(len(got)):
             got[row] = 0
+        self._awaited = rows
         awaited = len(got) if rows is None else int(np.count_nonzero(rows))
-        pending = awaited * self._all_tpdos.bit_count()
-        end = time.monotonic() + timeout
-        while pending:
-            remaining = end - time.monotonic()
-            msg = bus.recv(remaining if remaining > 0.0 else 0.0)
-            if msg is None:
-                if remaining <= 0.0:
-                    break
-                continue  # (slcan: a transmit acknowledgement reads as None)
-            pending -= self._take(msg, rows=rows)
+        self._receive(awaited * self._all_tpdos.bit_count(), timeout, self._take)
         full, fresh, rows, sw = self._all_tpdos, self._fresh, self._rows, self._statusword
         missing = not_enabled = 0
         for row in range(len(got)):
@@ -105,9 +97,9 @@ class Cia402Frames:
         self._not_enabled = not_enabled
         return missing
 
-    def _take(self, msg, late: bool = False, rows=None) -> int:
+    def _take(self, msg, late: bool = False) -> int:
         """Route one received frame; 1 when it is a TPDO this cycle still waited for (of a drive
-        in ``rows``), else 0."""
+        in ``_awaited``, a mask, or any when None), else 0."""
         if msg.is_error_frame:
             self.counters["error_frames"] += 1
             return 0
@@ -129,7 +121,7 @@ class Cia402Frames:
             if got & bit:
                 return 0
             self._got[row] = got | bit
-            return 1 if rows is None or rows[row] else 0
+            return 1 if self._awaited is None or self._awaited[row] else 0
         if kind == EMCY:
             code = c.emcy_code(data)
             if code is None:

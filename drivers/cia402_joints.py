@@ -48,7 +48,6 @@ from __future__ import annotations
 import math
 import time
 
-import can
 import canopen
 import numpy as np
 
@@ -75,13 +74,13 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
                  heartbeat_period: float = 0.1, heartbeat_timeout: float | None = None,
                  exchange_timeout: float = 0.5, reconnect_timeout: float = 2.0, reconnect_interval: float = 0.05,
                  max_torque=None):
-        super().__init__(name, [j.name for j in joints], bus, reconnect_timeout=reconnect_timeout,
-                         reconnect_interval=reconnect_interval)
+        super().__init__(name, [j.name for j in joints], bus, drive_timeout=drive_timeout,
+                         reconnect_timeout=reconnect_timeout, reconnect_interval=reconnect_interval)
         n = len(joints)
         self.joints, self.eds = tuple(joints), eds
         self.layout = layout or c.PdoLayout.from_eds(eds)
         self.reply_timeout = reply_deadline * period
-        self.stale_limit, self.drive_timeout, self.exchange_timeout = stale_limit, drive_timeout, exchange_timeout
+        self.stale_limit, self.exchange_timeout = stale_limit, exchange_timeout
         self.heartbeat_period = heartbeat_period
         self.heartbeat_timeout = 3 * heartbeat_period if heartbeat_timeout is None else heartbeat_timeout
         self.max_torque = np.full(n, math.inf) if max_torque is None else np.asarray(max_torque, dtype=float)
@@ -92,15 +91,8 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         self._offset = np.array([j.offset for j in joints])
         self._rad = self._dir / np.array([j.counts_per_rad for j in joints])  # rad (rad/s) per increment
         self._nm = self._dir * np.array([j.rated_torque for j in joints]) / 1000  # N·m per ‰
-        self._stale = np.zeros(n, dtype=np.int64)
-        self._zeros_i = np.zeros(n, dtype=np.int64)
         self._tmp, self._tau = np.zeros(n), np.zeros(n)
         self._hb_late = np.zeros(n, dtype=bool)
-        self._missing_since = np.full(n, np.nan)
-        self._nans = np.full(n, np.nan)
-        self._stamp = 0.0
-        self._last_sent = -np.inf  # clock time of the last RPDO set sent
-        self._drives_off: str | None = None  # why the drives must be assumed off (their deadline)
 
     # -- configuration -------------------------------------------------------------------
     @classmethod
@@ -184,7 +176,6 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         except Exception:
             self._disable_all()  # leave none of them enabled
             raise
-        self._last_sent = self._clock()
 
     def _towards_operation(self, row: int, statusword: int) -> int:
         return c.controlword_towards_operation(c.state_of(statusword), self._command[row][0])
@@ -290,14 +281,8 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         return Status.OK
 
     def _write(self, t: float) -> Status:
-        self._t_loop = t
-        if self.bus is None and not self._reconnect():
+        if not self._start_write(t, "RPDO deadline: they have faulted, torque off"):
             return Status.ERROR
-        now = self._clock()
-        if now - self._last_sent > self.drive_timeout and self._drives_off is None:
-            self._drives_off = (f"no command for {1e3 * (now - self._last_sent):.0f} ms, longer than the drives' "
-                                f"{1e3 * self.drive_timeout:g} ms RPDO deadline: they have faulted, torque off")
-            self._event("drives_off", self._drives_off)
         c_, tau, s = self.command, self._tau, self.state
         if c_.mode == CommandMode.IMPEDANCE:  # τ = kp (q_des − q) + kd (qd_des − q̇) + τ_ff, closed here
             np.subtract(c_.q_des, s.position, out=tau)
@@ -316,14 +301,7 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
             missing = self._cycle(self.reply_timeout)
         except Exception as e:
             return self._lost(e)
-        self._last_sent = now
-        self.counters["cycles"] += 1
-        if missing:
-            self.counters["missing_replies"] += missing
-            np.copyto(self._missing_since, t, where=~self._fresh & np.isnan(self._missing_since))  # (rare path)
-        np.copyto(self._missing_since, self._nans, where=self._fresh)
-        self._stamp = t
-        return Status.DEACTIVATE if self._drives_off is not None else Status.OK
+        return self._end_write(t, missing, self._fresh)
 
     def _cycle_until(self, controlword, done, what: str, rows=None, budget: float | None = None) -> None:
         """SYNC cycles with ``controlword(row, statusword)`` and zero torque until ``done(statusword)``

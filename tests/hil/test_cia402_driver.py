@@ -1,55 +1,29 @@
-"""The cia402 driver in-process: the real driver on a python-can virtual bus, emulated CiA 402
-drives (hil_sim.cia402_drive) on the far end, pumped right after each frame the master sends,
-on a clock the test owns."""
+"""The cia402 driver in-process (tests/hil/lockstep_rig.py): the real driver on a python-can
+virtual bus, emulated CiA 402 drives (hil_sim.cia402_drive) on the far end."""
 import tracemalloc
-import uuid
 
-import can
 import numpy as np
 import pytest
 
-from drivers.can_bus import BusOptions
 from drivers.cia402_joints import Cia402JointGroup
 from drivers.protocols import cia402 as c
 from drivers.protocols.cia402_layout import Cia402Joint
 from hil_sim.cia402_drive import Cia402Drive, Cia402DriveBus
-from hil_sim.mit_drive import MappedJointPort, pump
+from lockstep_rig import LockStep, rigs, silence_second_drive, virtual_bus
 from rtctl.errors import HardwareError
 from rtctl.hal import CommandMode, Status
 
 CPR = 1 << 20
 P_LSB = 2 * np.pi / CPR
+JOINTS = [Cia402Joint("a", 1, 10.0, CPR), Cia402Joint("b", 2, 20.0, CPR, direction=-1.0, offset=0.5)]
 
 
-class Rig(Cia402JointGroup):
-    """Joints whose 'plant' is arrays the test sets (q, qd) and reads (tau)."""
-
-    def __init__(self, joints, drive_scale=None, **kw):
-        channel = f"test-{uuid.uuid4().hex}"
-        bus = BusOptions({"interface": "virtual", "channel": channel}, 1_000_000, False,
-                         ("virtual", channel, None, None), channel)
-        super().__init__("arm", joints, bus, period=0.001, **{"reply_deadline": 0.0, **kw})
-        n = len(joints)
-        self.q, self.qd, self.tau = np.zeros(n), np.zeros(n), np.zeros(n)
+class Rig(LockStep, Cia402JointGroup):
+    def __init__(self, joints=JOINTS, drive_scale=None, **kw):
+        super().__init__("arm", joints, virtual_bus(), period=0.001, **{"reply_deadline": 0.0, **kw})
         scale = drive_scale or {}
-        self.drive_list = [
-            Cia402Drive(j.node_id, MappedJointPort(self.q, self.qd, self.tau, k, j.direction, j.offset),
-                        rated_torque=scale.get(j.name, j.rated_torque), counts_per_rev=j.counts_per_rev)
-            for k, j in enumerate(joints)]
-        self.drives = Cia402DriveBus(self.drive_list)
-        self.peer = can.Bus(interface="virtual", channel=channel)
-        self.now = 0.0
-
-    def _after_send(self):
-        pump(self.drives, self.peer, now=self.now)
-
-    def _clock(self):
-        return self.now
-
-    def tick(self, dt=0.001):
-        """One loop tick: read, then write the present command."""
-        self.now += dt
-        return self.read(self.now), self.write(self.now)
+        self._attach(lambda j, port: Cia402Drive(j.node_id, port, rated_torque=scale.get(j.name, j.rated_torque),
+                                                 counts_per_rev=j.counts_per_rev), Cia402DriveBus)
 
     def advance(self, dt):
         """Time passes for the drives without a tick (a frozen loop)."""
@@ -57,22 +31,9 @@ class Rig(Cia402JointGroup):
         self.drives.service(self.now, [])
 
 
-JOINTS = [Cia402Joint("a", 1, 10.0, CPR), Cia402Joint("b", 2, 20.0, CPR, direction=-1.0, offset=0.5)]
-
-
 @pytest.fixture
 def rig():
-    made = []
-
-    def make(joints=JOINTS, **kw):
-        r = Rig(joints, **kw)
-        made.append(r)
-        return r
-
-    yield make
-    for r in made:
-        r.close()
-        r.peer.shutdown()
+    yield from rigs(Rig)
 
 
 def test_configure_writes_the_settings_and_reads_the_state_without_enabling(rig):
@@ -143,12 +104,7 @@ def test_torque_and_impedance_through_a_reversed_mount(rig):
 
 def test_a_silent_drive_is_stale_and_the_stale_limit_is_an_error(rig):
     r = rig()
-    r.activate()
-    r.tick()
-    r.drive_list[1].faults.silent = True
-    statuses = [r.tick()[0] for _ in range(4)]
-    assert statuses == [Status.OK, Status.OK, Status.OK, Status.ERROR]
-    assert list(r.state.fresh) == [True, False]
+    assert silence_second_drive(r) == [Status.OK, Status.OK, Status.OK, Status.ERROR]
     assert "node(s) 0x2 " in r.last_error and r.events[-1]["event"] == "stale"
 
 

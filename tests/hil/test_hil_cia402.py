@@ -3,15 +3,11 @@ the driver's EDS) on two socketcand buses; `rtctl run` closes the loop at 500 Hz
 synchronous torque. The fault matrix as for the MIT drives: a silent drive, a frozen loop, a
 dropped connection, corrupted TPDOs, a drive fault with its EMCY code — each ends in a
 controlled state, with every tick in the telemetry and no drive left enabled."""
-import json
-import signal
-import time
 
 import numpy as np
 import pytest
 
-from hil_helpers import Daemon, read, rtctl, run, variant, wait_for
-from rtctl.control_socket import request
+from hil_helpers import rtctl, run, run_with_a_frozen_loop, variant
 
 pytestmark = pytest.mark.hil
 
@@ -26,14 +22,6 @@ def check_complete(summary, telemetry, sim_exit):
     assert telemetry.rows == summary["timing"]["ticks"] == summary["telemetry"]["rows"]
     assert all(dev["lifecycle"] == "closed" for dev in summary["devices"].values())
     assert not any(d["enabled"] for d in sim_exit["drives"]), "a drive was left enabled"
-
-
-def loop_time(daemon) -> float:
-    """The running loop's time (−1 before it runs: the socket answers from the loop only)."""
-    try:
-        return request(daemon.socket, "status", timeout=0.5)["t"]
-    except Exception:
-        return -1.0
 
 
 def test_check_prints_the_bus_load_of_the_pdo_set(tmp_path):
@@ -92,21 +80,10 @@ def test_a_silent_drive_is_a_safe_stop_within_3_ticks(tmp_path, hil_sim):
     assert offs[3] == "watchdog" and all(offs[i] == "command" for i in (1, 2, 4, 5, 6)), offs
 
 
-def test_a_frozen_loop_lets_the_drives_disable_themselves(tmp_path, hil_sim, monkeypatch):
+def test_a_frozen_loop_lets_the_drives_disable_themselves(tmp_path, hil_sim):
     config = variant(tmp_path, CONFIG)  # the drives' 20 ms RPDO deadline
     sim = hil_sim(config, "--port", 0)
-    for name, value in sim.info["env"].items():
-        monkeypatch.setenv(name, value)
-    telemetry = tmp_path / "run.msgpack"
-    d = Daemon(config, tmp_path, "--duration", 20, "--telemetry", telemetry)
-    try:
-        assert wait_for(lambda: loop_time(d) > 0.5 or d.proc.poll() is not None)  # running, drives enabled
-        d.proc.send_signal(signal.SIGSTOP)  # the loop freezes mid-run
-        time.sleep(0.3)
-        d.proc.send_signal(signal.SIGCONT)
-        code, out, err = d.finish(timeout=60)
-    finally:
-        d.kill()
+    code, summary, telemetry, err = run_with_a_frozen_loop(config, tmp_path, sim.info["env"])
     sim_exit = sim.stop()
     offs = [e for e in sim.of("motor_off") if e["cause"] == "watchdog"]
     assert sorted(e["drive"] for e in offs) == [1, 2, 3, 4, 5, 6], sim.events
@@ -114,11 +91,10 @@ def test_a_frozen_loop_lets_the_drives_disable_themselves(tmp_path, hil_sim, mon
     print(f"RPDO deadline: drives disabled {min(late):.1f}-{max(late):.1f} ms after the last RPDO")
     assert all(20.0 <= ms <= 30.0 for ms in late), late
     assert code == 3, err[-3000:]
-    summary = json.loads(d.summary.read_text())
     for name in ("arm", "wrist"):
         events = {e["event"] for e in summary["devices"][name]["events"]}
         assert "drives_off" in events, summary["devices"][name]["events"]
-    check_complete(summary, read(telemetry), sim_exit)
+    check_complete(summary, telemetry, sim_exit)
 
 
 def test_a_dropped_connection_is_reopened_and_stopped_safely_within_2_s(tmp_path, hil_sim):
