@@ -123,3 +123,17 @@ def run_with_a_frozen_loop(config, tmp_path: Path, env: dict, pause: float = 0.3
     finally:
         d.kill()
     return code, json.loads(d.summary.read_text()), read(telemetry), err
+
+
+def check_reopened_and_stopped(summary, device: str = "arm", within: float = 2.0) -> tuple[float, float]:
+    """After a dropped link: ``device`` lost its bus, reopened it, and the safety stage turned the
+    drives off within ``within`` s of the loss (loop time); (reopened after, off after)."""
+    dev = summary["devices"][device]
+    events = {e["event"]: e for e in reversed(dev["events"])}  # the first of each kind
+    assert dev["counters"]["bus_errors"] >= 1 and dev["counters"]["reconnects"] >= 1, dev["counters"]
+    assert events["bus_back"]["t"] > events["bus_lost"]["t"]
+    stop = [e for e in summary["safety"]["events"] if e["event"] == "deactivate"][0]
+    reopened, off = events["bus_back"]["t"] - events["bus_lost"]["t"], stop["t"] - events["bus_lost"]["t"]
+    print(f"link lost → reopened after {reopened:.3f} s, drives off after {off:.3f} s (loop time)")
+    assert off <= within
+    return reopened, off

@@ -7,7 +7,7 @@ controlled state, with every tick in the telemetry and no drive left enabled."""
 import numpy as np
 import pytest
 
-from hil_helpers import rtctl, run, run_with_a_frozen_loop, variant
+from hil_helpers import check_reopened_and_stopped, rtctl, run, run_with_a_frozen_loop, variant
 
 pytestmark = pytest.mark.hil
 
@@ -104,14 +104,8 @@ def test_a_dropped_connection_is_reopened_and_stopped_safely_within_2_s(tmp_path
     sim_exit = sim.stop()
     assert code == 3, err[-3000:]
     check_complete(summary, telemetry, sim_exit)
-    arm = summary["devices"]["arm"]
-    events = {e["event"]: e for e in reversed(arm["events"])}  # the first of each kind
-    assert arm["counters"]["bus_errors"] >= 1 and arm["counters"]["reconnects"] >= 1
-    assert events["bus_back"]["t"] > events["bus_lost"]["t"]
-    stop = [e for e in summary["safety"]["events"] if e["event"] == "deactivate"][0]
-    print(f"link lost → reopened after {events['bus_back']['t'] - events['bus_lost']['t']:.3f} s, "
-          f"drives off after {stop['t'] - events['bus_lost']['t']:.3f} s (loop time)")
-    assert stop["t"] - events["bus_lost"]["t"] <= 2.0
+    for device in ("arm", "wrist"):  # measured: reopened after 0.05 s, drives off after 0.56 s
+        check_reopened_and_stopped(summary, device)
     assert sim_exit["server"]["connections"] >= 4  # both buses reconnected
 
 

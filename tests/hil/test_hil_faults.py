@@ -5,7 +5,7 @@ tick and hil-sim reports every drive out of motor mode at the end."""
 import numpy as np
 import pytest
 
-from hil_helpers import run, run_with_a_frozen_loop, variant
+from hil_helpers import check_reopened_and_stopped, run, run_with_a_frozen_loop, variant
 
 pytestmark = pytest.mark.hil
 
@@ -78,16 +78,9 @@ def test_a_dropped_connection_is_reopened_and_stopped_safely_within_2_s(tmp_path
     sim_exit = sim.stop()
     assert code == 3, err[-3000:]
     check_complete(summary, telemetry, sim_exit)
-    arm = summary["devices"]["arm"]
-    events = {e["event"]: e for e in reversed(arm["events"])}  # the first of each kind
-    assert arm["counters"]["bus_errors"] >= 1 and arm["counters"]["reconnects"] >= 1
-    assert events["bus_back"]["t"] > events["bus_lost"]["t"]
-    stop = [e for e in summary["safety"]["events"] if e["event"] == "deactivate"][0]
     # from the loss of the link to the drives off: measured ~0.55 s (reopen within 50 ms, the
     # drives had stopped on their watchdog: a category-1 stop of estop_off_delay = 0.5 s)
-    print(f"link lost → reopened after {events['bus_back']['t'] - events['bus_lost']['t']:.3f} s, "
-          f"drives off after {stop['t'] - events['bus_lost']['t']:.3f} s (loop time)")
-    assert stop["t"] - events["bus_lost"]["t"] <= 2.0
+    check_reopened_and_stopped(summary)
     assert sim_exit["server"]["connections"] >= 2
 
 
