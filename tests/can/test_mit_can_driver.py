@@ -1,5 +1,8 @@
 """The mit_can driver in-process: the real driver on a python-can virtual bus, emulated drives
 (hil_sim.mit_drive) on the far end, pumped right after each send, on a clock the test owns."""
+import threading
+import time
+
 import can
 import numpy as np
 import pytest
@@ -7,7 +10,7 @@ import pytest
 from drivers.can_joints import MitCanJointGroup
 from drivers.protocols.mit import DRIVE_MODELS, KATZ
 from drivers.protocols.mit_layout import MitJoint
-from hil_sim.mit_drive import MitDrive, MitDriveBus
+from hil_sim.mit_drive import MitDrive, MitDriveBus, pump
 from lockstep_rig import LockStep, rigs, silence_second_drive, virtual_bus
 from rtctl.errors import HardwareError
 from rtctl.hal import CommandMode, Status
@@ -17,8 +20,8 @@ P_LSB, V_LSB, T_LSB = 25 / 65535, 130 / 4095, 36 / 4095
 
 class Rig(LockStep, MitCanJointGroup):
     def __init__(self, joints, **kw):
-        kw = {"reply_deadline": 0.0, "exchange_timeout": 0.0, **kw}
-        super().__init__("arm", joints, virtual_bus(), period=0.001, **kw)
+        kw = {"reply_deadline": 0.0, "exchange_timeout": 0.0, "period": 0.001, **kw}
+        super().__init__("arm", joints, virtual_bus(), **kw)
         self._attach(lambda j, port: MitDrive(j.drive_id, port, j.model), MitDriveBus)
 
 
@@ -72,6 +75,48 @@ def test_impedance_through_a_reversed_mount_with_an_offset(rig):
     assert r.tau[0] == pytest.approx(50.0 * (0.2 - 0.1) + 2.0 * 0.1 + 1.0, abs=50 * P_LSB + 2 * V_LSB + T_LSB)
     r.read(r.now)
     assert r.state.position[0] == pytest.approx(0.1, abs=P_LSB)
+
+
+def test_a_reversed_mount_reads_position_velocity_and_effort_in_the_joint_frame(rig):
+    r = rig([MitJoint("a", 1, KATZ, direction=-1.0, offset=0.5), MitJoint("b", 2, KATZ)])
+    r.q[:], r.qd[:] = [0.1, 0.1], [0.7, 0.7]
+    r.activate()
+    r.command.tau_ff[:] = [2.0, 2.0]
+    r.tick()
+    r.read(r.now)
+    s = r.state
+    assert s.position == pytest.approx([0.1, 0.1], abs=P_LSB)
+    assert s.velocity == pytest.approx([0.7, 0.7], abs=V_LSB)  # not −0.7 on the reversed joint
+    assert s.effort == pytest.approx([2.0, 2.0], abs=T_LSB)
+    d = r.drive_list[0]
+    assert d.port.get_position() == pytest.approx(-(0.1 - 0.5)) and d.port.get_velocity() == pytest.approx(-0.7)
+
+
+class LateRig(Rig):
+    """The drives answer ``delay`` s after each command, from another thread (as a real bus does)."""
+
+    delay = 0.0
+
+    def _after_send(self):
+        threading.Timer(self.delay, pump, (self.drives, self.peer), {"now": self.now}).start()
+
+
+@pytest.mark.parametrize("delay, missing", [(0.002, 0), (0.3, 1)])
+def test_replies_are_awaited_for_the_reply_deadline_as_a_fraction_of_the_period(delay, missing):
+    # 20 Hz, reply_deadline 0.6: a reply is awaited for 30 ms — one 2 ms late is in time, one 300 ms late is not
+    r = LateRig([MitJoint("a", 1, KATZ)], reply_deadline=0.6, period=0.05, exchange_timeout=1.0)
+    try:
+        r.delay = 0.0
+        r.activate()
+        r.delay = delay
+        r.write(r.now)
+        assert r.counters["missing_replies"] == missing
+    finally:
+        time.sleep(0.35)  # the late reply's timer has fired
+        r.delay = 0.0
+        r.close()
+        time.sleep(0.05)  # and so has the answer to exit motor mode
+        r.peer.shutdown()
 
 
 def test_a_missing_reply_is_stale_and_the_stale_limit_is_an_error(rig):

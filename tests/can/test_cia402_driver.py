@@ -1,4 +1,4 @@
-"""The cia402 driver in-process (tests/hil/lockstep_rig.py): the real driver on a python-can
+"""The cia402 driver in-process (tests/can/lockstep_rig.py): the real driver on a python-can
 virtual bus, emulated CiA 402 drives (hil_sim.cia402_drive) on the far end."""
 import tracemalloc
 
