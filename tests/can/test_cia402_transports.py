@@ -119,10 +119,11 @@ class TestCia402BackToBack:
         sync_cycle(link, {i: (c.CW_DISABLE_VOLTAGE, 0) for i in link.ids})
         enable_all(link)
         drive = link.drives.drives[3]
-        drive.set_error(0x2310)  # "continuous over current"
-        (emcy,) = link.collect(1)
+        drive.set_error(0x2310)  # "continuous over current": the EMCY leaves with the next frames it sends
+        others = [None]
+        states = sync_cycle(link, {i: (c.CW_ENABLE_OPERATION, 300) for i in link.ids}, others)
+        (emcy,) = others
         assert emcy.arbitration_id == c.EMCY_BASE + 3 and c.emcy_code(emcy.data) == 0x2310
-        states = sync_cycle(link, {i: (c.CW_ENABLE_OPERATION, 300) for i in link.ids})
         assert c.state_of(states[3][SW]) == c.FAULT and states[3][TRQ] == 0 and drive.torque == 0.0
         assert c.state_of(states[1][SW]) == c.OPERATION_ENABLED  # the others run on
         frames = [None]  # the EMCY "error reset", sent with the transition
