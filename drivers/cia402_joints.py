@@ -25,7 +25,8 @@ SYNC producer.
 
 Per tick, ``write()``: frames that arrived since the last cycle are taken first (EMCY,
 heartbeats, a late TPDO); then each drive's RPDO (controlword *enable operation*, target torque
-in ‰ of its rated torque; *disable voltage* to a drive that fell out of OPERATION ENABLED), one SYNC, and the TPDOs are collected until every drive's arrived or
+in ‰ of its rated torque; *disable voltage* and no torque to a drive that fell out of OPERATION
+ENABLED), one SYNC, and the TPDOs are collected until every drive's arrived or
 ``reply_deadline × period`` passed — blocking in ``recv``. The drives apply the torque at the
 SYNC and report their state measured there; ``read()`` of the next tick publishes it (one
 period old, as with any SYNC-cyclic drive). Impedance commands are closed here, at the loop
