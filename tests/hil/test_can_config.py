@@ -99,7 +99,8 @@ def test_check_computes_the_cia402_pdo_load(write_config):
     # per drive 95 + 135 + 95 bits (RPDO1 4 B, TPDO1 8 B, TPDO2 4 B), one SYNC of 55 bits
     six = check(write_config, cia402_config(500))
     assert six.returncode == 2 and "100 %" in six.stderr and "2005 bits/tick" in six.stderr
-    assert "≤ 398 Hz" in six.stderr  # 0.8 · 1e6 / 2005
+    # 0.8 · 1e6 / 2005 = 399 Hz; (0.8 · 1e6 / 500 − 55) / 325 = 4.75 drives per bus
+    assert "≤ 399 Hz" in six.stderr and "2 buses (≤ 4 per bus at 500 Hz)" in six.stderr
     three = check(write_config, cia402_config(500, joints=3))
     assert three.returncode == 0, three.stderr
     rows = [line.split() for line in three.stdout.splitlines() if line.startswith("can")]
