@@ -152,6 +152,10 @@ def bench(args) -> int:
         from rtctl.bench.can import bench_can as run, format_table
 
         result = run()
+    elif args.what == "soak":
+        from rtctl.bench.soak import bench_soak as run, format_table
+
+        result = run(args.config, minutes=args.minutes)
     else:
         from rtctl.bench.control import bench_control as run, format_table
 
