@@ -184,10 +184,11 @@ def _arma_panels(t, tel):
             first = 1 if name == "a_hat" else 0
             for k in range(tel[name].shape[1]):
                 panels.append(lambda ax, v=tel[name][:, k, :], title=f"{symbol}{first + k}":
-                              _per_joint(ax, t, v, title, ""))
+                              _per_joint(ax, t, v, title, "", _joint_names(tel, v.shape[1])))
     for name, (title, unit) in ARMA_PANELS.items():
         if name in tel and "b_hat" in tel:
-            panels.append(lambda ax, v=_columns(tel, name), title=title, unit=unit: _per_joint(ax, t, v, title, unit))
+            panels.append(lambda ax, v=_columns(tel, name), title=title, unit=unit:
+                          _per_joint(ax, t, v, title, unit, _joint_names(tel, v.shape[1])))
     return panels
 
 
