@@ -94,3 +94,27 @@ def test_missing_matplotlib_says_what_to_install(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "matplotlib.figure", None)
     with pytest.raises(RtctlError, match=r"pip install -e '\.\[plot\]'"):
         plot_run(tmp_path / "run.rtt", tmp_path / "run.png")
+
+
+def test_the_panels_draw_the_recorded_data(tmp_path):
+    """Each line is the telemetry column it claims to be, against the recorded time."""
+    pytest.importorskip("matplotlib")
+    from rtctl.plot import figure
+    from rtctl.telemetry import read
+
+    synthetic_run(tmp_path / "run.rtt", FULL.items(), n=300)
+    tel = read(tmp_path / "run.rtt")
+    axes = {ax.get_title(): ax for ax in figure(tmp_path / "run.rtt").axes}
+    for j in range(6):
+        lines = {line.get_label(): line for line in axes[f"joint {j + 1}: j{j + 1}"].get_lines()}
+        np.testing.assert_array_equal(lines["q"].get_xdata(), tel["t"])
+        np.testing.assert_array_equal(lines["q"].get_ydata(), tel["q"][:, j])
+        np.testing.assert_array_equal(lines["q_des"].get_ydata(), tel["q_des"][:, j])
+    error = axes["tracking error q_des − q"].get_lines()
+    np.testing.assert_allclose(np.column_stack([line.get_ydata() for line in error]), tel["q_des"] - tel["q"])
+    torque = axes["torque"].get_lines()
+    np.testing.assert_array_equal(np.column_stack([line.get_ydata() for line in torque]), tel["tau"])
+    s = axes["sliding variable s"].get_lines()
+    np.testing.assert_array_equal(np.column_stack([line.get_ydata() for line in s]), tel["s"])
+    estimates = next(ax for title, ax in axes.items() if title.startswith("adaptive estimates")).get_lines()
+    np.testing.assert_array_equal(np.column_stack([line.get_ydata() for line in estimates]), tel["params_hat"])
