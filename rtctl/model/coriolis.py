@@ -1,4 +1,4 @@
-"""The Coriolis matrix in both factorisations, and Ḣ, from composite body terms (spec §1, §4).
+"""The Coriolis matrix in both factorisations, and Ḣ, from composite body terms (docs/cstar_slotine_li.md).
 
 With body Jacobians J_k (columns S_j, j supporting k) and J̇_k (columns Ṡ_j = v_j × S_j),
 any body-level factorisation v_k ×* I_k v_k = B_k v_k gives a joint-space one,
@@ -34,7 +34,7 @@ SDOT = TMP + 3  # the slot of body holding Ṡ_i = v_i × S_i
 
 @leaf
 def inertia6(P, k, M):
-    """M[k] = the 6×6 spatial inertia I(P[k]) (spec §2)."""
+    """M[k] = the 6×6 spatial inertia I(P[k]) (eq. 17 of docs/cstar_slotine_li.md)."""
     zero_matrix(M[k])
     M[k, 0, 0], M[k, 0, 1], M[k, 1, 1] = P[k, 4], P[k, 5], P[k, 6]
     M[k, 0, 2], M[k, 1, 2], M[k, 2, 2] = P[k, 7], P[k, 8], P[k, 9]

@@ -57,8 +57,8 @@ def test_spec_numbers():
     assert busload.bus_load("arm", "mit", 6, 500, 1_000_000).load == pytest.approx(0.75)
     three = busload.bus_load("arm", "mit", 3, 1000, 1_000_000)
     assert three.load == pytest.approx(0.75) and three.time_per_tick_s == pytest.approx(750e-6)
-    # CiA 402: per joint RPDO 4 B (95 bits) + TPDO 8 B (135), one SYNC (55) per bus
-    assert busload.bus_load("x", "cia402", 2, 1000, 1_000_000).bits_per_tick == 2 * (95 + 135) + 55
+    # CiA 402: per joint RPDO 4 B (95 bits) + TPDO1 8 B (135) + TPDO2 4 B (95), one SYNC (55) per bus
+    assert busload.bus_load("x", "cia402", 2, 1000, 1_000_000).bits_per_tick == 2 * (95 + 135 + 95) + 55
 
 
 def test_six_joints_at_1khz_on_one_bus_refused_with_ways_out():
@@ -89,3 +89,17 @@ def test_budget_table():
     )
     lines = table.splitlines()
     assert len(lines) == 3 and "75%" in lines[1] and "150%" in lines[2] and "limit" in lines[2]
+
+
+@pytest.mark.parametrize("protocol, joints", [("mit", 3), ("mit", 6), ("cia402", 4)])
+def test_exactly_the_limit_is_accepted_and_one_bit_per_second_less_capacity_is_not(protocol, joints):
+    bits = busload.bus_load("a", protocol, joints, 1000, 1_000_000).bits_per_tick
+    exact = bits * 1000 * 5 // 4  # the bitrate at which the load is exactly 80 %
+    at_limit = busload.bus_load("a", protocol, joints, 1000, exact)
+    assert at_limit.load == busload.DEFAULT_LIMIT == 0.8
+    assert busload.check_bus_load(at_limit, "r.toml", "buses.a") is at_limit
+    assert "limit" not in busload.format_budget([at_limit]).splitlines()[1]
+    over = busload.bus_load("a", protocol, joints, 1000, exact - 1)
+    with pytest.raises(BusLoadError):
+        busload.check_bus_load(over, "r.toml", "buses.a")
+    assert "limit" in busload.format_budget([over]).splitlines()[1]
