@@ -193,6 +193,9 @@ def leg_board_device(path: Path):
     return None
 
 
+LEG_WATCHDOG_MS = 20.0  # the leg board's command watchdog is 2.5 × this, unless --drive-timeout-ms
+
+
 def serve_leg(args, path: Path, device) -> int:
     from hil_sim.leg_plant import LegParams, LegPlant
     from hil_sim.leg_serial import LegBoardServer
@@ -203,7 +206,8 @@ def serve_leg(args, path: Path, device) -> int:
     sim = t.table("sim", None)
     leg = sim.table("leg", Table({}, path, "sim.leg")) if sim is not None else Table({}, path, "sim.leg")
     plant = LegPlant(LegParams.from_table(leg))
-    server = LegBoardServer(plant, period, args.realtime_factor, args.drive_timeout_ms / 1e3 * 2.5, emit)
+    watchdog_ms = LEG_WATCHDOG_MS if args.drive_timeout_ms is None else args.drive_timeout_ms
+    server = LegBoardServer(plant, period, args.realtime_factor, watchdog_ms / 1e3 * 2.5, emit)
     server.faults = [ScriptedFault.parse(s) for s in args.fault]
     port = device.data.get("port", "")
     info = {"transport": "serial", "tty": server.path, "period": period,
@@ -233,7 +237,7 @@ def main(argv=None) -> int:
     p.add_argument("--realtime-factor", type=float, default=0.0, metavar="F",
                    help="0 (default): lock-step, one period per command set; F > 0: free-running at F × wall clock")
     p.add_argument("--drive-timeout-ms", type=float, default=None,
-                   help="the MIT drives' command watchdog (default: their device's drive_timeout, else 20 ms; "
+                   help="the MIT drives' command watchdog (default: their device's drive_timeout, else 20 ms; the leg board's is 2.5 × it; "
                         "a CiA 402 drive's deadline is configured by the driver)")
     p.add_argument("--fault", action="append", default=[], metavar="SPEC",
                    help="silent:ID | corrupt:ID:RATE | error:ID:CODE | drop, ID as N or BUS/N, optional @CYCLES")
