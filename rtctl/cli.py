@@ -1,13 +1,16 @@
 """``rtctl``: the command line. Every subcommand's ``--help`` says what it does.
 
 Exit codes (documented for systemd units and scripts):
-  0  clean exit (duration reached, ``stop``, SIGTERM or SIGINT)
+  0  clean exit (duration reached, ``stop``, SIGTERM or SIGINT) with no fault left latched
   1  unexpected internal error (a bug: please report the traceback)
   2  invalid configuration or command-line arguments (nothing was touched)
-  3  safe stop after a fault (limit, watchdog, device error, overruns, e-stop)
+  3  safe stop after a fault (limit, watchdog, device error, overruns, e-stop, telemetry
+     writer failure), or any run that ends with its fallback engaged and not cleared by
+     ``reset``; ``move``/``reset`` refused by the daemon
   4  hardware could not be brought up (driver missing, link failed)
   5  ``--enforce-rt`` and a real-time knob could not be applied
-  6  the control socket could not be reached (status/stop/estop/reset/move)
+  6  the control socket could not be reached (status/stop/estop/reset/move), or ``run``
+     found its control socket or telemetry file held by another running daemon
 """
 from __future__ import annotations
 
@@ -15,8 +18,8 @@ import argparse
 import json
 import sys
 
-from rtctl.errors import (ConfigError, ControlSocketError, HardwareError, RealtimeError, RtctlError,
-                          SafetyError)
+from rtctl.errors import (ConfigError, ControlSocketError, HardwareError, RealtimeError, ResourceBusyError,
+                          RtctlError, SafetyError)
 
 EXIT_OK, EXIT_BUG, EXIT_CONFIG, EXIT_FAULT, EXIT_HARDWARE, EXIT_RT, EXIT_SOCKET = range(7)
 
@@ -86,9 +89,15 @@ _EXIT_FOR = (
     (RealtimeError, EXIT_RT, "real-time: "),
     (HardwareError, EXIT_HARDWARE, "hardware: "),
     (ControlSocketError, EXIT_SOCKET, ""),
+    (ResourceBusyError, EXIT_SOCKET, "busy: "),
     (SafetyError, EXIT_FAULT, "safe stop: "),
     (RtctlError, EXIT_CONFIG, ""),
 )
+
+
+def exit_code_for(error: RtctlError) -> tuple[int, str]:
+    """The exit code of an error of the tree, and how its message starts."""
+    return next((c, p) for cls, c, p in _EXIT_FOR if isinstance(error, cls))
 
 
 def main(argv=None) -> int:
@@ -96,7 +105,7 @@ def main(argv=None) -> int:
     try:
         return _dispatch(args)
     except RtctlError as e:
-        code, prefix = next((c, p) for cls, c, p in _EXIT_FOR if isinstance(e, cls))
+        code, prefix = exit_code_for(e)
         print(f"rtctl: {prefix}{e}", file=sys.stderr)
         return code
     except KeyboardInterrupt:

@@ -26,6 +26,7 @@ import numpy as np
 import structlog
 
 from rtctl import logs
+from rtctl.cli import exit_code_for
 from rtctl.config import load_config
 from rtctl.control_socket import ControlServer
 from rtctl.errors import ConfigError, HardwareError, RtctlError
@@ -79,17 +80,27 @@ class Daemon:
     def run(self) -> int:
         path = self.args.telemetry or self.cfg.telemetry_path
         server = None
+        # from here on SIGTERM/SIGINT only set the stop flag: a signal during start-up stops
+        # the run at its first tick, with the same controlled stop and summary as later
+        previous = {s: signal.signal(s, self._on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
         try:
+            # the exclusive resources first (a second daemon on the same socket or telemetry
+            # file gives up here), then truncate: nothing another run holds is overwritten
+            server = ControlServer(self.args.socket or self.cfg.socket_path, self._handle, n_joints=self.model.nq)
             if path:
                 self.recorder = self._open_recorder(Path(path))
-            server = ControlServer(self.args.socket or self.cfg.socket_path, self._handle, n_joints=self.model.nq)
             for report in apply_rt(self._rt_settings(), enforce=self.args.enforce_rt):
                 log.info("rt knob", **report.as_dict())
             self._bring_up()
             self._loop(server)
+            self._fault_if_latched()
         except HardwareError as e:
             log.error("hardware failed", error=str(e))
             self.exit_code, self.stop_reason = EXIT_HARDWARE, f"hardware: {e}"
+            raise
+        except RtctlError as e:  # the summary says what the process exits with
+            self.exit_code = exit_code_for(e)[0]
+            self.stop_reason = self.stop_reason or str(e)
             raise
         finally:
             for dev in self.rt.all_devices:
@@ -97,7 +108,18 @@ class Daemon:
             if server is not None:
                 server.close()
             self._finish()
+            for s, h in previous.items():
+                signal.signal(s, h)
         return self.exit_code
+
+    def _fault_if_latched(self) -> None:
+        """A run that ends while its fallback is engaged (a fault not cleared by ``reset``,
+        e.g. within the fault's off-delay when the duration ends) is a fault stop, not a clean one."""
+        pending = [f.reason for f in self.safety.faults if not f.reason.startswith(CONTROLLED_STOP)]
+        if pending and self.exit_code == EXIT_OK:
+            self.exit_code = EXIT_FAULT
+            log.error("fault: safe stop", reason="the run ended with faults latched: " + "; ".join(pending[:3]),
+                      stop_reason=self.stop_reason)
 
     def _rt_settings(self):
         """The knobs to apply: ``--enforce-rt`` asks for the full set (what is not configured
@@ -177,31 +199,26 @@ class Daemon:
         ticker, tick, safety = self.ticker, self.tick, self.safety
         duration = self.args.duration
         stopping_since = None
-        previous = {s: signal.signal(s, self._on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
-        try:
-            ticker.start()
-            while True:
-                ticker.wait()
-                t = ticker.sim_time_s
-                if self.stop_reason is None and duration is not None and t >= duration:
-                    self.stop_reason = "duration reached"
-                if self.stop_reason is not None and stopping_since is None:
-                    stopping_since = t
-                    safety.estop(f"{CONTROLLED_STOP}: {self.stop_reason}")  # category 1: damp, then drives off
-                verdict = tick(t)
-                if server is not None:
-                    server.poll()
-                if ticker.end_tick() and stopping_since is None:
-                    self._fault("overrun limit reached")
-                if verdict == Verdict.DEACTIVATE or (stopping_since is not None and t - stopping_since > STOP_GRACE_S):
-                    if self.stop_reason is None:
-                        self._fault("safety stop: " + "; ".join(f.reason for f in safety.faults[-3:]))
-                    for dev in self.rt.all_devices:
-                        dev.deactivate()
-                    break
-        finally:
-            for s, h in previous.items():
-                signal.signal(s, h)
+        ticker.start()
+        while True:
+            ticker.wait()
+            t = ticker.sim_time_s
+            if self.stop_reason is None and duration is not None and t >= duration:
+                self.stop_reason = "duration reached"
+            if self.stop_reason is not None and stopping_since is None:
+                stopping_since = t
+                safety.estop(f"{CONTROLLED_STOP}: {self.stop_reason}")  # category 1: damp, then drives off
+            verdict = tick(t)
+            if server is not None:
+                server.poll()
+            if ticker.end_tick() and stopping_since is None:
+                self._fault("overrun limit reached")
+            if verdict == Verdict.DEACTIVATE or (stopping_since is not None and t - stopping_since > STOP_GRACE_S):
+                if self.stop_reason is None:
+                    self._fault("safety stop: " + "; ".join(f.reason for f in safety.faults[-3:]))
+                for dev in self.rt.all_devices:
+                    dev.deactivate()
+                break
 
     def _fault(self, reason: str) -> None:
         if self.stop_reason is None:
@@ -283,7 +300,12 @@ class Daemon:
                 col = name if name not in schema else f"{c.name}.{name}"
                 schema[col] = (arr.shape, arr.dtype.str)
                 sources[col] = arr
-        path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            where = ("<command line>", "--telemetry") if self.args.telemetry else (self.cfg.file, "telemetry.path")
+            raise ConfigError(*where, f"a file in a directory that exists or can be created; "
+                                      f"{path.parent}: {e.strerror or e}") from None
         meta = {"config": str(self.cfg.file), "robot": self.model.name, "joints": list(self.model.joint_names),
                 "rate_hz": self.cfg.loop.rate_hz, "phases": list(PHASES)}
         rec = Recorder(path, schema, meta, block_rows=self.cfg.telemetry_batch,

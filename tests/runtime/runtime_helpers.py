@@ -63,10 +63,18 @@ class Daemon:
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
 
     def wait_ready(self, timeout=60.0):
+        """Until the loop runs: it answers `status` (the socket exists from before the bring-up)."""
+        from rtctl.control_socket import request
+        from rtctl.errors import ControlSocketError
+
         end = time.monotonic() + timeout
         while time.monotonic() < end:
             if self.socket.exists() and self.proc.poll() is None:
-                return
+                try:
+                    if request(self.socket, "status", timeout=max(0.1, end - time.monotonic()))["ok"]:
+                        return
+                except ControlSocketError:
+                    pass
             if self.proc.poll() is not None:
                 raise AssertionError(f"daemon exited {self.proc.returncode}: {self.proc.stderr.read()}")
             time.sleep(0.05)
