@@ -29,7 +29,7 @@ from rtctl import logs
 from rtctl.cli import exit_code_for
 from rtctl.config import load_config
 from rtctl.control_socket import ControlServer
-from rtctl.errors import ConfigError, HardwareError, RtctlError
+from rtctl.errors import ConfigError, HardwareError, RtctlError, TrajectoryError
 from rtctl.hal import JointCommand, Status
 from rtctl.model.dynamics import gravity as gravity_of
 from rtctl.runtime import build
@@ -274,8 +274,18 @@ class Daemon:
         if points.shape[1] != self.model.nq:
             raise RtctlError(f"expected {self.model.nq} joint values per point, got {points.shape[1]}")
         ref, t = self.rt.ref, self.ticker.sim_time_s
-        self.tick.trajectory = retarget(t, ref.q, ref.qd, ref.qdd, points, self.limits, duration=req.get("duration"))
-        return {"ok": True, "t_start": t, "t_end": self.tick.trajectory.t_end}
+        times = req.get("times")
+        duration = times[0] if times is not None else req.get("duration")
+        try:  # each waypoint is reached at its time, or the move is refused with the reason
+            trajectory = retarget(t, ref.q, ref.qd, ref.qdd, points, self.limits, duration=duration,
+                                  durations=None if times is None else np.diff(times))
+        except TrajectoryError as e:
+            raise RtctlError(f"move refused: {e}") from None
+        asked = times[-1] if times is not None else duration
+        if asked is not None and abs(trajectory.t_end - t - asked) > 1e-9 * max(1.0, asked):
+            raise RtctlError(f"move refused: it would end after {trajectory.t_end - t:.6g} s, not the {asked:.6g} s asked")
+        self.tick.trajectory = trajectory
+        return {"ok": True, "t_start": t, "t_end": trajectory.t_end}
 
     def _status(self) -> dict:
         s = self.rt.state
