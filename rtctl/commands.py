@@ -47,11 +47,10 @@ def print_model(args) -> int:
 
 def check(args) -> int:
     """Validate everything `run` would, without touching a device; print the bus budget."""
-    from rtctl.config import load_config
-    from rtctl.runtime import build
+    from rtctl.daemon import prepare
 
-    cfg = load_config(args.config, sim=args.sim)
-    runtime = build(cfg)  # plug-ins validate their options here; nothing is opened
+    daemon = prepare(args)  # what `run` does before it opens anything
+    cfg, runtime = daemon.cfg, daemon.rt
     print(f"{cfg.file}: OK — robot {cfg.model.name} ({cfg.model.nq} joints), "
           f"{cfg.loop.rate_hz:g} Hz, devices: {', '.join(f'{d.name} ({d.driver})' for d in cfg.devices)}, "
           f"controllers: {', '.join(f'{c.name} ({c.type})' for c in cfg.controllers) or 'none'}")

@@ -34,6 +34,11 @@ from rtctl.timing.rt import RtSettings
 from rtctl.tomltable import Table, load_toml
 
 
+MIN_RATE_HZ = 1.0  # the loop's slowest rate: a tick is at most 1 s apart
+MIN_REALTIME_FACTOR = 0.01
+MAX_TIMER_SLACK_NS = 1_000_000  # 1 ms: a larger slack lets the kernel wake the loop that late
+
+
 @dataclass(frozen=True)
 class LoopConfig:
     rate_hz: float = 1000.0
@@ -165,18 +170,26 @@ def _loop(t: Table | None) -> LoopConfig:
             raise rt_t.error("cpus", f"an array of CPU numbers, got {cpus!r}")
         rt = RtSettings(priority=rt_t.int("priority", 0, min=0, max=99), cpus=tuple(cpus),
                         mlockall=rt_t.bool("mlockall", False),
-                        timer_slack_ns=rt_t.int("timer_slack_ns", 0, min=0),
+                        timer_slack_ns=rt_t.int("timer_slack_ns", 0, min=0, max=MAX_TIMER_SLACK_NS),
                         gc_freeze=rt_t.bool("gc_freeze", True))
         rt_t.done()
     cfg = LoopConfig(
-        rate_hz=t.float("rate_hz", 1000.0, positive=True, max=100_000.0),
-        overrun_limit=t.int("overrun_limit", 50, min=1),
-        spin_us=t.float("spin_us", 200.0, min=0.0),
-        realtime_factor=t.float("realtime_factor", 1.0, min=0.0, max=1000.0),
+        rate_hz=t.float("rate_hz", 1000.0, positive=True, min=MIN_RATE_HZ, max=100_000.0),
+        overrun_limit=t.int("overrun_limit", 50, min=1, max=1_000_000),
+        spin_us=t.float("spin_us", 200.0, min=0.0, max=1e6 / MIN_RATE_HZ),
+        realtime_factor=realtime_factor(t.float("realtime_factor", 1.0), t.error, "realtime_factor"),
         rt=rt,
     )
     t.done()
     return cfg
+
+
+def realtime_factor(value: float, error, key: str) -> float:
+    """0 (lock-step) or within [MIN_REALTIME_FACTOR, 1000]: a slower pace would leave the loop
+    asleep for minutes between ticks."""
+    if not (value == 0.0 or MIN_REALTIME_FACTOR <= value <= 1000.0):
+        raise error(key, f"0 (as fast as possible) or a number in [{MIN_REALTIME_FACTOR:g}, 1000], got {value!r}")
+    return value
 
 
 def joint_indices(t: Table, key: str, model: Model, *, allow_empty: bool = False) -> tuple[int, ...]:
@@ -266,21 +279,15 @@ def _trajectory(t: Table | None, model: Model) -> TrajectoryConfig | None:
     if t is None:
         return None
     unit = t.str("unit", "rad", choices=("deg", "rad"))
-    raw = t.raw("waypoints")
-    ok = isinstance(raw, list) and raw and all(
-        isinstance(w, list) and len(w) == model.nq and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in w)
-        for w in raw)
-    if not ok:
-        raise t.error("waypoints", f"a non-empty array of waypoints, each {model.nq} numbers")
     scale = np.where(model.joint_types == 0, np.pi / 180.0, 1.0) if unit == "deg" else np.ones(model.nq)
-    wp = np.array(raw, dtype=float) * scale
+    wp = t.matrix("waypoints", model.nq) * scale
     for k, w in enumerate(wp):
         bad = np.flatnonzero((w < model.q_min) | (w > model.q_max))
         if bad.size:
             j = bad[0]
             raise t.error(f"waypoints[{k}][{j}]", f"within {model.joint_names[j]}'s limits "
                           f"[{model.q_min[j] / scale[j]:g}, {model.q_max[j] / scale[j]:g}] {unit}")
-    acc = t.vector("max_acceleration", model.nq, None)
+    acc = t.vector("max_acceleration", model.nq, None, min=1e-6)
     cfg = TrajectoryConfig(
         waypoints=wp, smooth=t.bool("smooth", True), dwell=t.float("dwell", 0.0, min=0.0),
         velocity_scale=t.float("velocity_scale", 0.5, positive=True, max=1.0),

@@ -27,7 +27,7 @@ import structlog
 
 from rtctl import logs
 from rtctl.cli import exit_code_for
-from rtctl.config import load_config
+from rtctl.config import load_config, realtime_factor
 from rtctl.control_socket import ControlServer
 from rtctl.errors import ConfigError, HardwareError, RtctlError, TrajectoryError
 from rtctl.hal import JointCommand, Status
@@ -47,16 +47,25 @@ log = structlog.get_logger("rtctl.daemon")
 
 def run(args) -> int:
     logs.configure(json=True, level=args.log_level)
+    return prepare(args).run()
+
+
+def prepare(args) -> "Daemon":
+    """Everything ``run`` does before it touches anything — parse, validate every plug-in's
+    options, plan the trajectory — so ``rtctl check`` runs exactly this (ConfigError: exit 2)."""
     cfg = load_config(args.config, sim=args.sim)
-    if args.realtime_factor is not None:
+    if getattr(args, "realtime_factor", None) is not None:
         cfg = _with_realtime_factor(cfg, args.realtime_factor)
-    runtime = build(cfg)
-    return Daemon(cfg, runtime, args).run()
+    return Daemon(cfg, build(cfg), args)
 
 
 def _with_realtime_factor(cfg, factor: float):
-    if factor < 0 or (factor != 1.0 and cfg.sim is None):
-        raise ConfigError("<command line>", "--realtime-factor", "≥ 0, and ≠ 1 only with simulated devices")
+    def error(key, expected):
+        return ConfigError("<command line>", key, expected)
+
+    factor = realtime_factor(factor, error, "--realtime-factor")
+    if factor != 1.0 and cfg.sim is None:
+        raise error("--realtime-factor", "1 unless the devices are simulated ([sim] or --sim)")
     return replace(cfg, loop=replace(cfg.loop, realtime_factor=factor))
 
 
@@ -67,6 +76,7 @@ class Daemon:
         self.stop_reason: str | None = None
         self.exit_code = EXIT_OK
         self.limits = _trajectory_limits(cfg)
+        self._check_trajectory()
         self.safety = SafetyStage.from_model(
             self.model, cfg.safety, device_joints=runtime.device_joints,
             gravity=lambda q: gravity_of(self.model, q))
@@ -153,7 +163,10 @@ class Daemon:
             idx = self.rt.device_joints[i]
             np.put(state.position, idx, dev.state.position)
             np.put(state.velocity, idx, dev.state.velocity)
-        self.tick.trajectory = self._initial_trajectory(state.position.copy())
+        try:
+            self.tick.trajectory = self._initial_trajectory(state.position.copy())
+        except TrajectoryError as e:  # the devices report a start the limits do not allow
+            raise HardwareError(f"cannot start the trajectory from the measured position: {e}") from None
         self.tick.trajectory.sample(0.0, self.rt.ref.q, self.rt.ref.qd, self.rt.ref.qdd)
         self._warm_up()
         for c in self.rt.controllers:
@@ -188,6 +201,16 @@ class Daemon:
             warm_up = getattr(dev, "warm_up", None)
             if warm_up is not None:
                 warm_up()
+
+    def _check_trajectory(self) -> None:
+        """Plan the configured trajectory from its first waypoint now: the measured start is
+        known only once the devices are up, and a plan the limits refuse must exit 2 before."""
+        tcfg = self.cfg.trajectory
+        if tcfg is not None:
+            try:
+                through_waypoints(tcfg.waypoints, self.limits, smooth=tcfg.smooth, dwell=tcfg.dwell)
+            except TrajectoryError as e:
+                raise ConfigError(self.cfg.file, "trajectory", f"waypoints the limits allow to plan ({e})") from None
 
     def _initial_trajectory(self, q0):
         tcfg = self.cfg.trajectory
