@@ -30,13 +30,12 @@ import numpy as np
 
 from rtctl.errors import ConfigError, RtctlError
 from rtctl.model import Model, load_robot
-from rtctl.timing.rt import RtSettings
+from rtctl.timing.rt import MAX_TIMER_SLACK_NS, RtSettings
 from rtctl.tomltable import Table, load_toml
 
 
 MIN_RATE_HZ = 1.0  # the loop's slowest rate: a tick is at most 1 s apart
 MIN_REALTIME_FACTOR = 0.01
-MAX_TIMER_SLACK_NS = 1_000_000  # 1 ms: a larger slack lets the kernel wake the loop that late
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ from rtctl.model.dynamics import gravity as gravity_of
 from rtctl.runtime import build
 from rtctl.safety import SafetyStage, Verdict
 from rtctl.tick import Tick
-from rtctl.timing import PHASES, Ticker, apply_rt
+from rtctl.timing import PHASES, MonotonicClock, Ticker, apply_rt
 from rtctl.trajectory import JointLimits, hold, retarget, through_waypoints
 
 EXIT_OK, EXIT_FAULT, EXIT_HARDWARE = 0, 3, 4
@@ -80,9 +80,11 @@ class Daemon:
         self.safety = SafetyStage.from_model(
             self.model, cfg.safety, device_joints=runtime.device_joints,
             gravity=lambda q: gravity_of(self.model, q))
+        # a signal's stop request cuts the sleep to the next deadline short: SIGTERM is answered
+        # at once, however long the period
+        clock = MonotonicClock(round(cfg.loop.spin_us * 1e3), interrupted=lambda: self.stop_reason is not None)
         self.ticker = Ticker(round(1e9 * cfg.loop.period), realtime_factor=cfg.loop.realtime_factor,
-                             max_consecutive_overruns=cfg.loop.overrun_limit,
-                             spin_margin_ns=round(cfg.loop.spin_us * 1e3))
+                             max_consecutive_overruns=cfg.loop.overrun_limit, clock=clock)
         self.recorder = None
         self.tick = Tick(runtime, self.ticker, self.safety)
 
