@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from rtctl.model.robot import PRISMATIC, REVOLUTE, DHTable, Model, Motors
+from rtctl.model.robot import MAX_JOINTS, PRISMATIC, REVOLUTE, DHTable, Model, Motors
 from rtctl.model.rotations import hrot_x, hrot_z, homogeneous, rpy_matrix, trans
 from rtctl.tomltable import Table
 
@@ -61,14 +61,17 @@ def from_table(t: Table) -> Model:
     t.str("source", "")
     t.str("convention", "dh", choices=("dh",))
     joints = t.tables("joints")
-    if not joints:
-        raise t.error("joints", "at least one [[joints]] table")
+    if not 1 <= len(joints) <= MAX_JOINTS:
+        raise t.error("joints", f"1 to {MAX_JOINTS} [[joints]] tables (the robot size rtctl supports), "
+                                f"got {len(joints)}")
 
     names, types, dh_rows, params, limits, motor_rows = [], [], [], [], [], []
     for j in joints:
         jtype = _JOINT_TYPES[j.str("type", "revolute", choices=tuple(_JOINT_TYPES))]
         lin = 1.0 if jtype == PRISMATIC else ang  # unit of this joint's variable
         names.append(j.str("name"))
+        if not names[-1] or names[-1] in names[:-1]:
+            raise j.error("name", f"a joint name used once; {names[-1]!r} is {'taken' if names[-1] else 'empty'}")
         types.append(jtype)
         row = (j.float("alpha") * ang, j.float("a"), j.float("d"), j.float("theta0", 0.0) * ang)
         dh_rows.append(row)
