@@ -17,7 +17,7 @@ Layout of a run configuration (paths are relative to the file)::
                   devices (names of non-joint devices it uses), gains …
     [trajectory]  unit, waypoints, smooth, dwell, velocity/acceleration limits
     [safety]      fallback, damping, stale_ticks, position_margin, estop_off_delay
-    [telemetry]   path, batch_rows
+    [telemetry]   path, batch_rows, on_failure ("stop": a writer failure is a safe stop; "continue")
     [control]     socket
 """
 from __future__ import annotations
@@ -107,6 +107,7 @@ class Config:
     telemetry_path: Path | None
     telemetry_batch: int
     socket_path: Path
+    telemetry_on_failure: str = "stop"  # writer failed: "stop" (safe stop, exit 3) or "continue" without telemetry
 
 
 def default_socket_path() -> Path:
@@ -140,11 +141,12 @@ def load_config(path, *, sim: bool = False) -> Config:
     trajectory = _trajectory(t.table("trajectory", None), model)
     safety = _safety(t.table("safety", None))
     tele = t.table("telemetry", None)
-    telemetry_path, batch = None, 500
+    telemetry_path, batch, on_failure = None, 500, "stop"
     if tele is not None:
         p = tele.str("path", "")
         telemetry_path = (base / p).resolve() if p else None
         batch = tele.int("batch_rows", 500, min=1, max=100_000)
+        on_failure = tele.str("on_failure", "stop", choices=("stop", "continue"))
         tele.done()
     control = t.table("control", None)
     socket_path = default_socket_path()
@@ -155,7 +157,7 @@ def load_config(path, *, sim: bool = False) -> Config:
         raise t.error("loop.realtime_factor", "1.0 unless the devices are simulated ([sim] or --sim)")
     t.done()
     return Config(path, robot_file, model, loop, devices, controllers, trajectory, safety, sim_t,
-                  telemetry_path, batch, socket_path)
+                  telemetry_path, batch, socket_path, on_failure)
 
 
 def _loop(t: Table | None) -> LoopConfig:

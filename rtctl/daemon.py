@@ -29,7 +29,7 @@ from rtctl import logs
 from rtctl.cli import exit_code_for
 from rtctl.config import load_config, realtime_factor
 from rtctl.control_socket import ControlServer
-from rtctl.errors import ConfigError, HardwareError, RtctlError, TrajectoryError
+from rtctl.errors import ConfigError, HardwareError, RtctlError, TelemetryError, TrajectoryError
 from rtctl.hal import JointCommand, Status
 from rtctl.model.dynamics import gravity as gravity_of
 from rtctl.runtime import build
@@ -86,6 +86,7 @@ class Daemon:
         self.ticker = Ticker(round(1e9 * cfg.loop.period), realtime_factor=cfg.loop.realtime_factor,
                              max_consecutive_overruns=cfg.loop.overrun_limit, clock=clock)
         self.recorder = None
+        self.telemetry_failure: str | None = None
         self.tick = Tick(runtime, self.ticker, self.safety)
 
     # -- lifecycle ---------------------------------------------------------------------
@@ -234,6 +235,8 @@ class Daemon:
                 stopping_since = t
                 safety.estop(f"{CONTROLLED_STOP}: {self.stop_reason}")  # category 1: damp, then drives off
             verdict = tick(t)
+            if tick.recorder is not None and tick.recorder.failure is not None:
+                self._telemetry_failed(tick.recorder.failure)
             if server is not None:
                 server.poll()
             if ticker.end_tick() and stopping_since is None:
@@ -244,6 +247,16 @@ class Daemon:
                 for dev in self.rt.all_devices:
                     dev.deactivate()
                 break
+
+    def _telemetry_failed(self, reason: str) -> None:
+        """The writer cannot write (a full disk): say so now, stop recording, and apply the
+        policy — a safe stop (default), or running on without telemetry."""
+        self.tick.recorder = None
+        self.telemetry_failure = reason
+        policy = self.cfg.telemetry_on_failure
+        log.error("telemetry failed", reason=reason, on_failure=policy, rows=self.recorder.rows)
+        if policy == "stop":
+            self._fault(f"telemetry: {reason}")
 
     def _fault(self, reason: str) -> None:
         if self.stop_reason is None:
@@ -358,10 +371,18 @@ class Daemon:
                    "devices": {d.name: d.diagnostics() for d in self.rt.all_devices}}
         if self.recorder is not None:
             summary["telemetry"] = {"path": str(self.recorder.path), "rows": self.recorder.rows,
-                                    "dropped_rows": self.recorder.dropped_rows}
-            self.recorder.close(summary=summary)
+                                    "dropped_rows": self.recorder.dropped_rows, "error": self.telemetry_failure}
+            try:
+                self.recorder.close(summary=summary)
+            except TelemetryError as e:  # the summary is written all the same
+                if self.telemetry_failure is None:  # (else reported when it happened)
+                    log.error("telemetry failed", reason=str(e))
+                summary["telemetry"]["error"] = str(e)
         if self.args.summary:
-            Path(self.args.summary).write_text(json.dumps(summary, indent=2, default=float))
+            try:
+                Path(self.args.summary).write_text(json.dumps(summary, indent=2, default=float))
+            except OSError as e:
+                log.error("summary not written", path=str(self.args.summary), reason=e.strerror or str(e))
         timing = summary["timing"]
         log.info("summary", exit_code=self.exit_code, stop_reason=self.stop_reason, ticks=timing.get("ticks"),
                  overruns=timing.get("overruns"), achieved_rate_hz=timing.get("achieved_rate_hz"),

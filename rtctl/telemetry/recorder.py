@@ -42,7 +42,7 @@ import msgpack
 import numpy as np
 
 from rtctl.errors import ResourceBusyError, TelemetryError
-from rtctl.telemetry.ring import DROPPED, RELEASED, STORED, Ring
+from rtctl.telemetry.ring import DROPPED, FAILED, RELEASED, STORED, Ring
 from rtctl.telemetry.schema import FORMAT, VERSION, normalise_schema, row_dtype, schema_to_wire
 
 _WAKE = b"F"
@@ -222,6 +222,13 @@ class Recorder:
     def writer_alive(self) -> bool:
         return not self._closed and self._proc.poll() is None
 
+    @property
+    def failure(self) -> str | None:
+        """Why the writer can no longer write (None while it can): one shared-memory read,
+        cheap enough to ask every tick."""
+        code = self._ctl[FAILED] if self._ctl is not None else 0
+        return f"cannot write telemetry file {self.path}: {os.strerror(code)}" if code else None
+
     def close(self, summary=None, timeout: float = 30.0) -> None:
         """Write the partial block, the footer (with ``summary``) and fsync; safe to call twice."""
         if self._closed:
@@ -246,11 +253,12 @@ class Recorder:
             self._proc.kill()
             self._proc.wait()
             code = None
+        failure = self.failure
         self._ctl = self._ring_bytes = None
         self._ring.close()
         if code != 0:
-            raise TelemetryError(f"telemetry writer for {self.path} failed "
-                                 f"({'timed out' if code is None else f'exit status {code}'}); "
+            why = failure or f"telemetry writer for {self.path} failed"
+            raise TelemetryError(f"{why} ({'timed out' if code is None else f'writer exit status {code}'}); "
                                  f"rows stored: {self._stored}")
 
     def __enter__(self):
