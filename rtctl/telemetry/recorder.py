@@ -258,7 +258,7 @@ class Recorder:
         self._ring.close()
         if code != 0:
             why = failure or f"telemetry writer for {self.path} failed"
-            raise TelemetryError(f"{why} ({'timed out' if code is None else f'writer exit status {code}'}); "
+            raise TelemetryError(f"{why} ({'timed out' if code is None else f'exit status {code}'}); "
                                  f"rows stored: {self._stored}")
 
     def __enter__(self):
