@@ -44,9 +44,11 @@ def read_bus_options(t: Table) -> BusOptions:
     kwargs = {}
     for key in list(bt.data):
         value = bt.raw(key)
+        if not isinstance(value, (str, int, float, bool)):  # (the TOML has no NaN: load_toml refused it)
+            raise bt.error(key, f"a string, number or true/false for can.Bus({key}=...), got {value!r}")
         kwargs[key] = expand_env(bt, key, value) if isinstance(value, str) else value
     interface = kwargs.get("interface")
-    if interface not in can.interfaces.VALID_INTERFACES:
+    if not isinstance(interface, str) or interface not in can.interfaces.VALID_INTERFACES:
         raise bt.error("interface", f"a python-can interface ({', '.join(sorted(can.interfaces.VALID_INTERFACES))}), "
                                     f"got {interface!r}")
     channel = kwargs.get("channel")

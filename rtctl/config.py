@@ -125,7 +125,9 @@ def load_config(path, *, sim: bool = False) -> Config:
     robot_file = (base / robot_t.str("description")).resolve()
     try:
         model = load_robot(robot_file)
-    except ConfigError:
+    except ConfigError as e:
+        if e.key_path == "<file>":  # the path itself is wrong: say where it was written
+            raise robot_t.error("description", f"{e.expected}; got {robot_file}") from None
         raise
     except RtctlError as e:
         raise robot_t.error("description", f"a valid robot description ({e})") from None

@@ -24,20 +24,23 @@ def _assert_exit_2(result, *words):
 
 def test_defect_06_nan_waypoint_exits_2_before_the_bus_is_opened(write_config):
     path = write_config(HIL.replace("[30, 20, -30, 30, 30, 45]", "[30, 20, nan, 30, 30, 45]"))
-    for command in ("check", "run"):
-        # nothing listens on port 1: a run that opened the bus would fail with exit 4
-        result = rtctl(command, path, env={**os.environ, "HIL_SIM_PORT": "1"}, timeout=60)
-        _assert_exit_2(result, str(path), "trajectory.waypoints[1][2]", "finite")
-        assert "exit motor mode" not in result.stdout + result.stderr
+    # nothing listens on port 1: a run that opened the bus would fail with exit 4
+    result = rtctl("run", path, env={**os.environ, "HIL_SIM_PORT": "1"}, timeout=60)
+    _assert_exit_2(result, str(path), "trajectory.waypoints[1][2]", "finite")
+    assert "exit motor mode" not in result.stdout + result.stderr
 
 
-def test_defect_06_a_trajectory_the_limits_refuse_exits_2_at_check(write_config):
+def test_defect_06_a_trajectory_the_limits_refuse_exits_2_at_check(write_config, capsys):
+    from rtctl.cli import main
+
     # every waypoint is within the limits, but the planner refuses the smooth path through them
     # (it ends on every joint's limit); `run` used to find out only after the devices were up
     text = BASE.replace("waypoints = [[0, 45, -180, 0, 45, 0], [30, 30, -160, 20, 60, 30], [0, 45, -180, 0, 45, 0]]",
                         "waypoints = [[34, 152, -78, 152, 63, -265], [114, -36, -28, -61, 73, 22], "
                         "[160, -45, 45, 170, 100, 266]]\nsmooth = true")
-    _assert_exit_2(rtctl("check", write_config(text), timeout=60), "trajectory", "limits")
+    assert main(["check", str(write_config(text))]) == 2
+    err = capsys.readouterr().err
+    assert "trajectory: waypoints the limits allow" in err and "violates the limits" in err, err
 
 
 @pytest.mark.parametrize("edit, key", [
@@ -65,15 +68,28 @@ def test_defect_10_messages_name_the_key(write_config, capsys):
 
 
 @pytest.mark.parametrize("args, option", [
-    (["--duration", "nan"], "--duration"),
+    (["--duration", "nan"], "--duration"),  # ran forever
     (["--duration", "-1"], "--duration"),
-    (["--realtime-factor", "nan"], "--realtime-factor"),
+    (["--realtime-factor", "nan"], "--realtime-factor"),  # tracebacks
     (["--realtime-factor", "inf"], "--realtime-factor"),
-    (["--realtime-factor", "1e-9"], "--realtime-factor"),
 ])
-def test_defect_13_bad_run_arguments_exit_2(write_config, tmp_path, args, option):
-    result = rtctl("run", write_config(), *args, "--socket", tmp_path / "s", timeout=60)
-    _assert_exit_2(result, option)
+def test_defect_13_bad_run_arguments_exit_2(write_config, capsys, args, option):
+    from rtctl.cli import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main(["run", str(write_config()), *args])
+    assert exit_.value.code == 2
+    assert f"argument {option}: expected a finite number" in capsys.readouterr().err
+
+
+def test_defect_13_a_realtime_factor_too_small_to_tick_exits_2(write_config):
+    from argparse import Namespace
+
+    from rtctl.daemon import prepare
+    from rtctl.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="--realtime-factor"):
+        prepare(Namespace(config=write_config(), sim=False, realtime_factor=1e-9))
 
 
 def test_defect_13_config_not_utf8_exits_2(tmp_path):
@@ -84,16 +100,23 @@ def test_defect_13_config_not_utf8_exits_2(tmp_path):
 
 @pytest.mark.parametrize("where", ["parent is a file", "parent cannot be created"])
 def test_defect_13_bad_telemetry_parent_exits_2(write_config, tmp_path, where):
+    from argparse import Namespace
+
+    from rtctl.daemon import prepare
+    from rtctl.errors import ConfigError
+
     if where == "parent is a file":
         (tmp_path / "plain").write_text("")
         telemetry = tmp_path / "plain" / "run.msgpack"
+    elif os.geteuid() == 0:
+        telemetry = Path("/proc/rtctl-no/run.msgpack")  # root may write anywhere but /proc
     else:
-        if os.geteuid() == 0:
-            telemetry = Path("/proc/rtctl-no/run.msgpack")  # root may write anywhere but /proc
-        else:
-            locked = tmp_path / "locked"
-            locked.mkdir(mode=0o500)
-            telemetry = locked / "sub" / "run.msgpack"
-    result = rtctl("run", write_config(), "--duration", "0.1", "--telemetry", telemetry,
-                   "--socket", tmp_path / "s", timeout=60)
-    _assert_exit_2(result, "--telemetry")
+        locked = tmp_path / "locked"
+        locked.mkdir(mode=0o500)
+        telemetry = locked / "sub" / "run.msgpack"
+    args = Namespace(config=write_config(), sim=False, realtime_factor=None, telemetry=str(telemetry), summary=None,
+                     socket=str(tmp_path / "s"), enforce_rt=False, duration=0.1)
+    daemon = prepare(args)
+    with pytest.raises(ConfigError, match="--telemetry: a file in a directory"):
+        daemon.run()  # in-process: the old code raised a bare OSError (a traceback, exit 1)
+    assert daemon.ticker.tick == -1  # the loop never started
