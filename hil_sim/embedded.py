@@ -26,6 +26,7 @@ import numpy as np
 from rtctl.hal import JointGroup, Status
 from rtctl.hal.lifecycle import Lifecycle
 from rtctl.model import load_robot
+from rtctl.model.dynamics import forward_dynamics
 from hil_sim.plant import Plant
 
 
@@ -59,6 +60,10 @@ class SimPlantHub:
         plant = Plant(true_model, substeps=sim.int("substeps", 4, min=1, max=1000),
                       friction_scale=sim.float("friction", 1.0, min=0.0),
                       armature=sim.bool("armature", True), q0=q0)
+        try:  # a joint with no inertia and no armature cannot be simulated (its q̈ is undefined)
+            forward_dynamics(true_model, plant.q, plant.qd, plant.qd, plant.armature)
+        except ValueError as e:
+            raise sim.error("armature", f"a plant whose every joint has inertia or armature ({e})") from None
         hub = cls(plant, period)
         hub.encoder_counts = sim.int("encoder_counts", 0, min=0)
         hub.velocity_noise = sim.float("velocity_noise", 0.0, min=0.0)

@@ -59,6 +59,8 @@ __all__ = [
 ]
 
 _KINDS = {"christoffel": CHRISTOFFEL, "cstar": CSTAR}
+_SINGULAR = ("H(q) + diag(armature) is not positive definite at this q "
+             "(a joint with no inertia and no armature, or non-physical parameters)")
 
 
 # --- hot path -------------------------------------------------------------------------------
@@ -92,8 +94,11 @@ def mass_matrix_into(arrays: ModelArrays, data: Data, q, H) -> None:
 def forward_dynamics_into(arrays: ModelArrays, data: Data, q, qd, tau, armature, qdd) -> None:
     """q̈ = (H + diag(armature))⁻¹ (τ − C q̇ − G) into ``qdd`` (CRBA + Cholesky)."""
     check_into("forward_dynamics", data, (arrays, q, qd, tau, armature, qdd), 4)
-    forward_dynamics_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body,
-                            data.Ic, data.H, q, qd, tau, armature, qdd)
+    try:
+        forward_dynamics_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body,
+                                data.Ic, data.H, q, qd, tau, armature, qdd)
+    except ZeroDivisionError:  # a zero pivot: no inertia and no armature on some joint
+        raise ValueError(_SINGULAR) from None
 
 
 def coriolis_matrix_into(arrays: ModelArrays, data: Data, q, qd, kind: int, C) -> None:
@@ -174,10 +179,18 @@ def mass_matrix_dot(model: Model, q, qd) -> np.ndarray:
 
 
 def forward_dynamics(model: Model, q, qd, tau, armature=None) -> np.ndarray:
-    """q̈ from (H + diag(armature)) q̈ = τ − C q̇ − G; ``armature`` defaults to none (zeros)."""
+    """q̈ from (H + diag(armature)) q̈ = τ − C q̇ − G; ``armature`` (≥ 0) defaults to none (zeros).
+    ValueError where H + diag(armature) is not positive definite (non-physical parameters)."""
     arrays, data, q, qd, tau = _setup(model, q, qd, tau)
     armature = np.zeros(model.nq) if armature is None else vector(armature, model.nq, "armature")
+    if np.any(armature < 0):
+        raise ValueError(f"armature: expected values ≥ 0, got {armature}")
     qdd = np.zeros(model.nq)
-    forward_dynamics_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body, data.Ic,
-                            data.H, q, qd, tau, armature, qdd)
+    try:
+        forward_dynamics_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body,
+                                data.Ic, data.H, q, qd, tau, armature, qdd)
+    except ZeroDivisionError:
+        raise ValueError(f"{model.name}: {_SINGULAR}") from None
+    if not np.all(np.isfinite(qdd)):  # the Cholesky factorisation met a negative pivot
+        raise ValueError(f"{model.name}: {_SINGULAR}")
     return qdd

@@ -36,6 +36,7 @@ from rtctl.model.rotations import homogeneous, matrix_rpy, rot_axis, rpy_matrix,
 
 _MOVING = {"revolute": REVOLUTE, "continuous": REVOLUTE, "prismatic": PRISMATIC}
 _UNLIMITED = sys.float_info.max
+_LARGEST = 1e6  # any other number's magnitude (m, rad, kg, kg·m²): past it products overflow
 
 
 @dataclass
@@ -182,8 +183,8 @@ def _floats(element, attr, count, default):
         values = np.array([float(x) for x in text.split()])
     except ValueError:
         values = np.array([np.nan])
-    if values.shape != (count,) or not np.all(np.isfinite(values)):
-        raise ModelError(f"<{element.tag} {attr}={text!r}>: expected {count} finite numbers")
+    if values.shape != (count,) or not np.all(np.abs(values) <= _LARGEST):
+        raise ModelError(f"<{element.tag} {attr}={text!r}>: expected {count} numbers of magnitude ≤ {_LARGEST:g}")
     return values
 
 
@@ -196,9 +197,9 @@ def _float(element, attr, default, *, lo=-np.inf, unlimited=False) -> float:
         value = float(text)
     except ValueError:
         value = np.nan
-    if np.isnan(value) or (np.isinf(value) and not unlimited) or value < lo:
-        raise ModelError(f"<{element.tag} {attr}={text!r}>: expected a {'' if unlimited else 'finite '}number"
-                         f"{f' ≥ {lo:g}' if lo > -np.inf else ''}")
+    if np.isnan(value) or (abs(value) > _LARGEST and not unlimited) or value < lo:
+        raise ModelError(f"<{element.tag} {attr}={text!r}>: expected a number"
+                         f"{'' if unlimited else f' of magnitude ≤ {_LARGEST:g}'}{f' ≥ {lo:g}' if lo > -np.inf else ''}")
     return value
 
 

@@ -65,7 +65,7 @@ def test_defect_09_dh_file_without_gravity_loads_with_the_default(tmp_path):
 
 
 @pytest.mark.parametrize("text, words", [
-    (urdf(xyz="a b c"), ["xyz", "finite numbers"]),
+    (urdf(xyz="a b c"), ["xyz", "3 numbers"]),
     (urdf(lower="abc"), ["lower", "number"]),
     (urdf(mass="heavy"), ["value", "number"]),
 ])

@@ -120,3 +120,18 @@ def test_defect_13_bad_telemetry_parent_exits_2(write_config, tmp_path, where):
     with pytest.raises(ConfigError, match="--telemetry: a file in a directory"):
         daemon.run()  # in-process: the old code raised a bare OSError (a traceback, exit 1)
     assert daemon.ticker.tick == -1  # the loop never started
+
+
+def test_fuzz_finding_a_plant_without_inertia_exits_2_at_check(write_config, tmp_path, capsys):
+    """The model-API fuzzer found forward dynamics dividing by zero for a joint with no inertia
+    and no armature; a simulated run of such a robot now exits 2 at check instead of raising in
+    its first tick."""
+    from rtctl.cli import main
+
+    robot = tmp_path / "massless.toml"
+    robot.write_text('name = "massless"\n' + "".join(f'[[joints]]\nname = "j{k}"\nalpha = 0\na = 0.5\nd = 0\n'
+                                                   for k in range(2)))
+    text = BASE.replace(f"{ROOT}/configs/robots/puma560.toml", str(robot)).replace(
+        "initial_q = [0.0, 0.7854, -3.1416, 0.0, 0.7854, 0.0]", "initial_q = [0.0, 0.0]").split("[trajectory]")[0]
+    assert main(["check", str(write_config(text))]) == 2
+    assert "sim.armature" in capsys.readouterr().err
