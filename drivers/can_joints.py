@@ -1,4 +1,4 @@
-"""MIT-protocol CAN joint drives as one JointGroup per bus (driver ``mit_can``; spec/can_joints.md).
+"""MIT-protocol CAN joint drives as one JointGroup per bus (driver ``mit_can``; docs/can_joints.md).
 
 One device is one CAN bus; a robot on several buses is several devices (the budget still adds
 up devices that name the same bus). Options (the ``[[devices]]`` table; drive layout in

@@ -1,5 +1,5 @@
 """``hil-sim CONFIG``: the robot of a run configuration — plant and emulated MIT drives — in
-its own process, behind a real transport, for ``rtctl run`` to drive (DESIGN §2).
+its own process, behind a real transport, for ``rtctl run`` to drive (docs/operations.md, "Hardware in the loop").
 
     hil-sim configs/puma560_hil_socketcand.toml                    # transport from the config
     hil-sim CONFIG --transport socketcand [--host H] [--port N]     # default: the config's port; 0: a free one
@@ -23,7 +23,6 @@ and on SIGTERM/SIGINT a last ``{"event": "exit", …}`` with every drive's state
 from __future__ import annotations
 
 import argparse
-import json
 import signal
 import sys
 import threading
@@ -34,6 +33,7 @@ from hil_sim.can_rig import emulated_drives, sim_layout
 from hil_sim.embedded import SimPlantHub
 from hil_sim.lockstep import HubDriveBus, PlantHub, ScriptedFault
 from rtctl.config import joint_indices
+from rtctl import jsonout
 from rtctl.errors import RtctlError
 from rtctl.timing.rt import RtSettings, apply_rt
 from rtctl.model import load_robot
@@ -41,7 +41,7 @@ from rtctl.tomltable import ENV_TEMPLATE, Table, load_toml
 
 
 def emit(event: dict) -> None:
-    print(json.dumps(event), flush=True)
+    print(jsonout.dumps(event), flush=True)
 
 
 class BusPlan:

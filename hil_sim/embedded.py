@@ -8,7 +8,8 @@ same causality as a real drive that answers each command with a fresh measuremen
 
 Options (the run configuration's ``[sim]`` table)::
 
-    substeps = 4                 # integrator substeps per period
+    substeps = 4                 # integrator steps per period
+    integrator = "euler"         # or "rk4" (classical Runge–Kutta; hil_sim.plant)
     friction = 1.0               # scale of the robot file's viscous + Coulomb friction
     armature = true              # reflected rotor inertia from the robot file
     plant = "robots/x.toml"      # another description as the true plant (default: the robot)
@@ -59,7 +60,8 @@ class SimPlantHub:
             q0 = np.clip(np.zeros(model.nq), model.q_min, model.q_max)
         plant = Plant(true_model, substeps=sim.int("substeps", 4, min=1, max=1000),
                       friction_scale=sim.float("friction", 1.0, min=0.0),
-                      armature=sim.bool("armature", True), q0=q0)
+                      armature=sim.bool("armature", True), q0=q0,
+                      integrator=sim.str("integrator", "euler", choices=("euler", "rk4")))
         try:  # a joint with no inertia and no armature cannot be simulated (its q̈ is undefined)
             forward_dynamics(true_model, plant.q, plant.qd, plant.qd, plant.armature)
         except ValueError as e:

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import heapq
-import json
 import math
 import random
 import signal
@@ -29,6 +28,7 @@ import can
 
 from drivers.protocols import mit
 from drivers.protocols.mit import DRIVE_MODELS, KATZ, MitDriveModel, Special
+from rtctl import jsonout
 
 
 class JointPort(Protocol):
@@ -347,7 +347,7 @@ def announce(server) -> None:
     SIGTERM/SIGINT stop it cleanly."""
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: server.shutdown())
-    print(json.dumps(server.info()), flush=True)
+    print(jsonout.dumps(server.info()), flush=True)
     sys.stdout.flush()
 
 

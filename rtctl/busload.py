@@ -1,4 +1,4 @@
-"""CAN bus load: the budget every bus must fit at the loop rate (spec/can_joints.md §3).
+"""CAN bus load: the budget every bus must fit at the loop rate (docs/can_joints.md).
 
 Pure arithmetic on frame sizes, so ``rtctl check`` can print it without importing any driver.
 A standard (11-bit) classic CAN frame with n data bytes occupies at worst, with every possible

@@ -1,12 +1,12 @@
 """The short subcommands of ``rtctl`` (the daemon lives in :mod:`rtctl.daemon`)."""
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 
+from rtctl import jsonout
 from rtctl.cli import EXIT_OK, print_json
 
 SHIPPED_PUMA = Path(__file__).resolve().parent.parent / "configs" / "robots" / "puma560.toml"
@@ -45,18 +45,64 @@ def print_model(args) -> int:
     return EXIT_OK
 
 
-def check(args) -> int:
-    """Validate everything `run` would, without touching a device; print the bus budget."""
-    from rtctl.daemon import prepare
+def margins(args) -> int:
+    """The delay margins of every adaptive (Slotine–Li) controller of a configuration."""
+    from rtctl.config import load_config
+    from rtctl.control.margins import format_margins, trajectory_margins
+    from rtctl.daemon import _trajectory_limits
+    from rtctl.errors import ConfigError
+    from rtctl.runtime import build
+    from rtctl.trajectory import through_waypoints
 
-    daemon = prepare(args)  # what `run` does before it opens anything
+    cfg = load_config(args.config)
+    adaptive = [(c, spec) for c, spec in zip(build(cfg).controllers, cfg.controllers) if hasattr(c, "gamma")]
+    if not adaptive:
+        raise ConfigError(cfg.file, "controllers", "a slotine_li controller to analyse")
+    if cfg.trajectory is None:
+        raise ConfigError(cfg.file, "trajectory", "a trajectory: the margins are taken along it")
+    trajectory = through_waypoints(cfg.trajectory.waypoints, _trajectory_limits(cfg), smooth=cfg.trajectory.smooth)
+    for rate in args.rate or [cfg.loop.rate_hz]:
+        if not (rate > 0 and np.isfinite(rate)):
+            raise ConfigError("<command line>", "--rate", f"a positive rate in Hz, got {rate}")
+        for c, spec in adaptive:
+            m = trajectory_margins(cfg.model, c, trajectory, rate / spec.divisor, motor_model=c.motor_model)
+            print(format_margins(c.name, rate / spec.divisor, m))
+    return EXIT_OK
+
+
+def check(args) -> int:
+    """Validate everything `run` would, without touching a device; print the bus budget and
+    the environment variables the run will need (an unset one is reported, not an error)."""
+    from rtctl.daemon import prepare
+    from rtctl.tomltable import deferred_env
+
+    with deferred_env() as env_uses:
+        daemon = prepare(args)  # what `run` does before it opens anything: load, build, plan
     cfg, runtime = daemon.cfg, daemon.rt
     print(f"{cfg.file}: OK — robot {cfg.model.name} ({cfg.model.nq} joints), "
           f"{cfg.loop.rate_hz:g} Hz, devices: {', '.join(f'{d.name} ({d.driver})' for d in cfg.devices)}, "
           f"controllers: {', '.join(f'{c.name} ({c.type})' for c in cfg.controllers) or 'none'}")
     for line in runtime.bus_budget():
         print(line)
+    for line in _env_lines(env_uses):
+        print(line)
     return EXIT_OK
+
+
+def _env_lines(uses) -> list[str]:
+    """What `check` says about the ``${VAR}`` a configuration names."""
+    if not uses:
+        return []
+    lines = ["environment variables the run reads:"]
+    for use in uses:
+        if use.value is not None:
+            state = f"set: {use.value!r}"
+        elif use.default is not None:
+            state = f"not set: the default {use.default!r} applies"
+        else:
+            state = "NOT SET: `run` needs it (it was not checked here)"
+        lines.append(f"  {use.name:<16} {use.key} — {state}")
+    return lines
 
 
 def control_request(args) -> int:
@@ -111,7 +157,8 @@ def bench(args) -> int:
         result = run(robot)
     print(format_table(result))
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2, default=float))
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(jsonout.dumps(result, indent=2))
         print(f"wrote {args.json}")
     return EXIT_OK
 

@@ -1,4 +1,4 @@
-"""One tick of the loop (DESIGN §2):
+"""One tick of the loop (docs/architecture.md, "The tick"):
 
     read() → reference → controllers update() (each at its rate divisor) → safety → write() → record
 

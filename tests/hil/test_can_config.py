@@ -52,7 +52,9 @@ def test_two_devices_on_the_same_bus_count_together(write_config):
 
 def test_option_errors_name_the_key(write_config):
     unset = can_config(500, ("can0", (0, 6))).replace('channel = "can0"', 'channel = "${RTCTL_TEST_UNSET_VAR}"')
-    result = check(write_config, unset)
+    checked = check(write_config, unset)  # check lists it; run needs it
+    assert checked.returncode == 0 and "RTCTL_TEST_UNSET_VAR" in checked.stdout
+    result = rtctl("run", write_config(unset))
     assert result.returncode == 2 and "devices[0].bus.channel" in result.stderr and "RTCTL_TEST_UNSET_VAR" in result.stderr
     clash = check(write_config, can_config(500, ("can0", (0, 6)), extra="ids = [1, 2, 3, 3, 5, 6]\n"))
     assert clash.returncode == 2 and "devices[0].ids" in clash.stderr
