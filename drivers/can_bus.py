@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import can
 
-from rtctl.busload import DEFAULT_LIMIT, BusLoad, bus_load, check_bus_load, format_budget
+from rtctl.busload import DEFAULT_LIMIT, BusLoad, ProtocolFrames, bus_load, check_bus_load, format_budget
 from rtctl.tomltable import Deferred, Table, expand_env
 
 DEFAULT_BITRATE = 1_000_000
@@ -76,13 +76,14 @@ class _Bus:
     protocol: str
     bitrate: int
     bitrate_assumed: bool
+    frames: ProtocolFrames | None = None  # None: the protocol's standard frames
     joints: int = 0
     devices: list = field(default_factory=list)
     ids: dict = field(default_factory=dict)  # CAN id → who sends (a drive) or listens (a master_id) on it
     replies: dict = field(default_factory=dict)  # (master_id, reply byte 0) → the joint it names
 
     def load(self, rate_hz: float) -> BusLoad:
-        return bus_load(self.label, self.protocol, self.joints, rate_hz, self.bitrate)
+        return bus_load(self.label, self.protocol, self.joints, rate_hz, self.bitrate, self.frames)
 
 
 class BusBudget:
@@ -102,11 +103,12 @@ class BusBudget:
         return budget, True
 
     def add(self, t: Table, device: str, bus: BusOptions, protocol: str, joints: int, rate_hz: float,
-            limit: float = DEFAULT_LIMIT) -> BusLoad:
+            limit: float = DEFAULT_LIMIT, frames: ProtocolFrames | None = None) -> BusLoad:
+        """``frames``: what one joint (and the bus) costs per tick, when not the protocol's standard."""
         entry = self.buses.get(bus.identity)
         if entry is None:
-            entry = self.buses[bus.identity] = _Bus(bus.label, protocol, bus.bitrate, bus.bitrate_assumed)
-        elif entry.protocol != protocol or entry.bitrate != bus.bitrate:
+            entry = self.buses[bus.identity] = _Bus(bus.label, protocol, bus.bitrate, bus.bitrate_assumed, frames)
+        elif entry.protocol != protocol or entry.bitrate != bus.bitrate or entry.frames != frames:
             raise t.error("protocol", f"the protocol and bitrate of the other devices on bus {bus.label} "
                                       f"({entry.protocol}, {entry.bitrate} bit/s), got {protocol}, {bus.bitrate} bit/s")
         entry.joints += joints

@@ -19,6 +19,7 @@ Options (the run configuration's ``[sim]`` table)::
     velocity_noise = 0.0         # std of white noise on measured velocity (rad/s)
     seed = 1
     transport = "direct"         # "can": through the MIT CAN driver and emulated drives (hil_sim.can_embedded)
+    [sim.leg]                    # the robot is the prosthetic leg: its board on the leg plant (hil_sim.leg)
 """
 from __future__ import annotations
 
@@ -96,6 +97,10 @@ class SimJointGroup(JointGroup):
             from hil_sim.can_embedded import SimCanJointGroup
 
             return SimCanJointGroup.from_config(device, context)
+        if context.sim.has("leg"):  # the prosthetic leg: its board on the leg plant (hil_sim.leg)
+            from hil_sim.leg import EmbeddedLegBoard
+
+            return EmbeddedLegBoard.from_config(device, context)
         hub = context.shared.get("sim_hub")
         if hub is None:
             hub = SimPlantHub.from_options(context.sim, context.model, context.period, context.base_dir)

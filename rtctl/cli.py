@@ -139,17 +139,26 @@ def _parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
-                                        "control-socket", "safety", "trajectory"),
+                                        "control-socket", "safety", "trajectory", "leg", "soak"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
                             "PUMA 560; loop-timing: an empty loop (like cyclictest); can: codec and transports; "
-                            "control: the Slotine–Li laws and arma_gmv; telemetry, control-socket, safety, trajectory: their per-tick costs")
+                            "control: the Slotine–Li laws and arma_gmv; telemetry, control-socket, safety, trajectory: their per-tick costs; "
+                            "leg: the leg automaton's gates + circuit per tick and the leg board codec; "
+                            "soak: the full stack over HIL (socketcand, MIT and CiA 402) for --minutes: RSS, GC, "
+                            "overruns and lateness per minute, telemetry rows, drives left enabled")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
     bench.add_argument("--config", default=None, help="run configuration for `bench loop` (default: the shipped one)")
     bench.add_argument("--rate", type=_RATE, default=1000.0, help="loop rate for `bench loop` (Hz)")
     bench.add_argument("--seconds", type=_SECONDS, default=10.0, help="duration for `bench loop` (s)")
+    bench.add_argument("--minutes", type=_SECONDS, default=10.0,
+                       help="duration for `bench soak` (default 10; --config: another HIL configuration)")
 
     sub.add_parser("doctor", help="report this machine's real-time readiness and what to change")
+
+    from rtctl.logic.cli import add_parser as add_leg_parser
+
+    add_leg_parser(sub)
     return p
 
 
@@ -226,6 +235,10 @@ def _dispatch(args) -> int:
         from rtctl.commands import bench
 
         return bench(args)
+    if args.command == "leg":
+        from rtctl.logic.cli import leg_command
+
+        return leg_command(args)
     if args.command == "doctor":
         from rtctl.commands import doctor
 

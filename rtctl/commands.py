@@ -138,7 +138,7 @@ def bench(args) -> int:
         from rtctl.bench.control_socket import bench_control_socket as run, format_table
 
         result = run()
-    elif args.what in ("safety", "trajectory"):
+    elif args.what in ("safety", "trajectory", "leg"):
         from importlib import import_module
 
         module = import_module(f"rtctl.bench.{args.what}")
@@ -151,6 +151,10 @@ def bench(args) -> int:
         from rtctl.bench.can import bench_can as run, format_table
 
         result = run()
+    elif args.what == "soak":
+        from rtctl.bench.soak import bench_soak as run, format_table
+
+        result = run(args.config, minutes=args.minutes)
     else:
         from rtctl.bench.control import bench_control as run, format_table
 

@@ -375,6 +375,8 @@ class Daemon:
                                       f"{path.parent}: {e.strerror or e}") from None
         meta = {"config": str(self.cfg.file), "robot": self.model.name, "joints": list(self.model.joint_names),
                 "rate_hz": self.cfg.loop.rate_hz, "phases": list(PHASES)}
+        for c in rt.controllers:  # e.g. the names of a vector column's entries: "leg_gates_labels"
+            meta.update(getattr(c, "telemetry_meta", {}))
         rec = Recorder(path, schema, meta, block_rows=self.cfg.telemetry_batch,
                        wait_when_full=self.cfg.loop.realtime_factor == 0)
         for name, arr in sources.items():

@@ -3,8 +3,9 @@
 Panels, each drawn only when its columns were recorded: joint tracking (``q`` against
 ``q_des``, one panel per joint), tracking errors ``q_des − q``, torques ``tau``, timing
 histograms (every column named ``*_ns``: per-phase compute times, wake lateness), the
-sliding variable ``s``, and adaptive estimates (columns starting with ``params_hat`` or
-``pi_hat``). The time axis is ``t`` when recorded, the tick index otherwise.
+sliding variable ``s``, adaptive estimates (columns starting with ``params_hat`` or
+``pi_hat``), and the leg automaton's gait phases (``leg_state`` with its gates, actions and
+the foot loads). The time axis is ``t`` when recorded, the tick index otherwise.
 
 matplotlib is the optional extra ``plot``; it is imported here only, and drawn through its
 object API with the Agg canvas (no pyplot state, no display needed).
@@ -120,6 +121,34 @@ def _estimates(t, tel, names):
     return draw
 
 
+def _gait_phases(t, tel):
+    def draw(ax):
+        ax.step(t, _columns(tel, "leg_state")[:, 0], where="post", lw=1.2, color="k", label="state")
+        if "leg_gates" in tel:
+            gates = _columns(tel, "leg_gates")
+            names = tel.meta.get("leg_gates_labels") or [f"g{k}" for k in range(gates.shape[1])]
+            for k in range(gates.shape[1]):  # one thin band per gate below the states
+                ax.fill_between(t, -0.9 - 0.6 * k, -0.9 - 0.6 * k + 0.45 * gates[:, k], step="post", lw=0)
+                ax.text(t[0], -0.75 - 0.6 * k, names[k], fontsize=5, va="center")
+        ax.set_title("gait phases: automaton state (and gate bits below)")
+        ax.set_ylabel("state")
+    return draw
+
+
+def _leg_actions(t, tel):
+    def draw(ax):
+        actions = _columns(tel, "leg_actions")
+        ax.step(t, actions[:, 0], where="post", lw=0.8, label="knee")
+        ax.step(t, actions[:, 1] + 0.05, where="post", lw=0.8, label="ankle")
+        if "leg_channels" in tel:
+            loads = _columns(tel, "leg_channels")[:, 3:5]
+            ax.plot(t, np.clip(loads, 0, 3), lw=0.5, alpha=0.6)
+        ax.set_yticks([0, 1, 2, 3], ["hold", "decrease", "increase", "release"])
+        ax.set_title("actions (knee, ankle) and foot loads (toe, heel)")
+        ax.legend(fontsize=6, loc="best")
+    return draw
+
+
 def _panels(tel):
     t = tel["t"] if "t" in tel else np.arange(tel.rows)
     panels = []
@@ -137,6 +166,10 @@ def _panels(tel):
     if "s" in tel:
         s = _columns(tel, "s")
         panels.append(lambda ax: _per_joint(ax, t, s, "sliding variable s", "rad/s", _joint_names(tel, s.shape[1])))
+    if "leg_state" in tel:
+        panels.append(_gait_phases(t, tel))
+    if "leg_actions" in tel:
+        panels.append(_leg_actions(t, tel))
     estimates = [name for name in tel.columns if name.startswith(ESTIMATE_PREFIXES)]
     if estimates:
         panels.append(_estimates(t, tel, estimates))
@@ -151,10 +184,11 @@ def _arma_panels(t, tel):
             first = 1 if name == "a_hat" else 0
             for k in range(tel[name].shape[1]):
                 panels.append(lambda ax, v=tel[name][:, k, :], title=f"{symbol}{first + k}":
-                              _per_joint(ax, t, v, title, ""))
+                              _per_joint(ax, t, v, title, "", _joint_names(tel, v.shape[1])))
     for name, (title, unit) in ARMA_PANELS.items():
         if name in tel and "b_hat" in tel:
-            panels.append(lambda ax, v=_columns(tel, name), title=title, unit=unit: _per_joint(ax, t, v, title, unit))
+            panels.append(lambda ax, v=_columns(tel, name), title=title, unit=unit:
+                          _per_joint(ax, t, v, title, unit, _joint_names(tel, v.shape[1])))
     return panels
 
 

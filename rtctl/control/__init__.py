@@ -14,6 +14,7 @@ CONTROLLERS = {
     "computed_torque": "rtctl.control.computed_torque:ComputedTorque",
     "slotine_li": "rtctl.control.slotine_li:SlotineLi",
     "arma_gmv": "rtctl.control.arma_gmv:ArmaGmv",
+    "leg_automaton": "rtctl.control.leg_automaton:LegAutomaton",
 }
 
 
