@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, settings
 
 # bounded, so the suite stays fast (RTCTL_FUZZ_EXAMPLES=2000 for a deep run); no example
 # database: each run explores afresh
-EXAMPLES = int(os.environ.get("RTCTL_FUZZ_EXAMPLES", "25"))
+EXAMPLES = int(os.environ.get("RTCTL_FUZZ_EXAMPLES", "15"))
 FUZZ = settings(max_examples=EXAMPLES, deadline=None, database=None,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
 
