@@ -17,7 +17,8 @@ import pytest
 from hypothesis import given, strategies as st
 
 from fuzz_helpers import FUZZ
-from rtctl.control_socket import COMMANDS, ControlServer, request
+from polled_server import PolledServer, connect
+from rtctl.control_socket import COMMANDS, request
 from runtime_helpers import BASE
 
 N = 6
@@ -49,54 +50,19 @@ chunks = st.one_of(
 )
 
 
-class Served:
-    """A ControlServer polled every millisecond (the loop's stand-in) whose handler checks
-    that whatever reaches it is a valid request."""
-
-    def __init__(self, path):
-        self.bad, self.handled = [], []
-        self.server = ControlServer(path, self._handle, n_joints=N, request_timeout=0.2, idle_timeout=0.5)
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._thread.start()
-
-    def _handle(self, req):
-        self.handled.append(req["cmd"])
-        ok = isinstance(req, dict) and req.get("cmd") in COMMANDS
-        if req.get("cmd") == "move":
-            points = req["q"] if req["q"] is not None else req["waypoints"]
-            ok &= isinstance(points, np.ndarray) and points.shape[-1] == N and bool(np.all(np.isfinite(points)))
-            ok &= req["duration"] is None or (math.isfinite(req["duration"]) and req["duration"] > 0)
-        if not ok:
-            self.bad.append(req)
-        return {}
-
-    def _run(self):
-        while not self._stop.is_set():
-            self.server.poll()
-            time.sleep(0.001)
-
-    def close(self):
-        self._stop.set()
-        self._thread.join()
-        self.server.close()
-
-
-def _connect(path):
-    s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    s.settimeout(2)
-    for _ in range(2000):
-        try:
-            s.connect(path)
-            return s
-        except BlockingIOError:  # the accept queue is full until the next poll
-            time.sleep(0.001)
-    raise AssertionError("could not connect")
+def valid(req) -> bool:
+    """What the handler may see: a known command, and for move finite targets of N joints."""
+    ok = isinstance(req, dict) and req.get("cmd") in COMMANDS
+    if req.get("cmd") == "move":
+        points = req["q"] if req["q"] is not None else req["waypoints"]
+        ok &= isinstance(points, np.ndarray) and points.shape[-1] == N and bool(np.all(np.isfinite(points)))
+        ok &= req["duration"] is None or (math.isfinite(req["duration"]) and req["duration"] > 0)
+    return ok
 
 
 def test_fuzz_control_socket_streams(tmp_path):
     path = str(tmp_path / "ctl.sock")
-    served = Served(path)
+    served = PolledServer(path, valid, request_timeout=0.2, idle_timeout=0.5)
     hogs = []
     try:
         @FUZZ
@@ -104,10 +70,10 @@ def test_fuzz_control_socket_streams(tmp_path):
                         min_size=1, max_size=6), st.integers(0, 12))
         def case(actions, idle):
             while len(hogs) < idle:  # idle connections held across examples (the server drops them)
-                hogs.append(_connect(path))
+                hogs.append(connect(path))
             conns = {}
             for k, data, then in actions:
-                s = conns.get(k) or conns.setdefault(k, _connect(path))
+                s = conns.get(k) or conns.setdefault(k, connect(path))
                 try:
                     s.sendall(data)
                     if then == "shutdown":
@@ -117,9 +83,7 @@ def test_fuzz_control_socket_streams(tmp_path):
                 if then == "close":
                     s.close()
                     conns.pop(k)
-            t0 = time.monotonic()
-            assert request(path, "estop", timeout=2.0) == {"ok": True}
-            assert time.monotonic() - t0 < 2.0
+            assert request(path, "estop", timeout=2.0) == {"ok": True}  # answered within 2 s
             for s in conns.values():
                 s.close()
             assert not served.bad, served.bad
@@ -129,7 +93,7 @@ def test_fuzz_control_socket_streams(tmp_path):
         for s in hogs:
             s.close()
         served.close()
-    assert served.handled.count("estop") >= 1
+    assert served.calls.count("estop") >= 1
 
 
 PACED = BASE.replace("realtime_factor = 0.0", "realtime_factor = 1.0").replace("rate_hz = 1000.0", "rate_hz = 500.0")
@@ -151,8 +115,8 @@ def test_fuzz_control_socket_storm_on_a_running_daemon(write_config, daemon):
         held = []
         while not stop.is_set():
             try:
-                s = _connect(path)
-            except (AssertionError, OSError):
+                s = connect(path, timeout=2.0)
+            except OSError:
                 continue
             try:
                 if kind == "garbage":
