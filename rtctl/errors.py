@@ -61,6 +61,10 @@ class ControlSocketError(RtctlError):
     """The control socket is unreachable or answered with an error."""
 
 
+class ResourceBusyError(RtctlError):
+    """An exclusive resource (control socket, telemetry file) is held by another running daemon."""
+
+
 class TelemetryError(RtctlError):
     """A telemetry file cannot be written or read back (bad schema, writer died, not a telemetry file)."""
 
