@@ -41,9 +41,23 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--enforce-rt", action="store_true", help="refuse to start unless every real-time knob applies")
     run.add_argument("--log-level", default="info", choices=("debug", "info", "warning", "error"))
 
-    check = sub.add_parser("check", help="validate a run configuration and print the bus-load budget")
+    check = sub.add_parser("check", help="validate a run configuration; print the bus-load budget and the "
+                                         "guard's report (crossings of interference zones and the bypasses)")
     check.add_argument("config")
     check.add_argument("--sim", action="store_true", help="check as `run --sim` would")
+
+    plan = sub.add_parser("plan", help="plan a path around the interference zones (and draw it)",
+                          description="Plan a joint-space path from the start (the simulator's initial_q, or "
+                                      "--from) to --to around the zones of CONFIG (robot file and [[guard.zones]]): "
+                                      "the shortest path in a two-joint plane, a resolution-complete grid search "
+                                      "otherwise. Prints the path; exit 2 when there is none, with the reason.")
+    plan.add_argument("config", help="run configuration (TOML)")
+    plan.add_argument("--to", type=float, nargs="+", required=True, metavar="Q", help="target joint positions")
+    plan.add_argument("--from", dest="start", type=float, nargs="+", metavar="Q",
+                      help="start joint positions (default: the simulator's initial_q)")
+    plan.add_argument("--deg", action="store_true", help="positions in degrees (revolute joints)")
+    plan.add_argument("--sim", action="store_true", help="read CONFIG as `run --sim` would")
+    plan.add_argument("--plot", metavar="PNG", help="draw the zones and the path in each joint plane that has a zone")
 
     model = sub.add_parser("model", help="print a robot: joints, tool pose, H, G and a timing line")
     model.add_argument("robot", help="robot description: D-H TOML or URDF")
@@ -66,10 +80,12 @@ def _parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
-                                        "control-socket", "safety", "trajectory"),
+                                        "control-socket", "safety", "trajectory", "guard"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
                             "PUMA 560; loop-timing: an empty loop (like cyclictest); can: codec and transports; "
-                            "control: the Slotine–Li laws; telemetry, control-socket, safety, trajectory: their per-tick costs")
+                            "control: the Slotine–Li laws; telemetry, control-socket, safety, trajectory: their per-tick costs; "
+                            "guard: the per-tick interference guard (16 zones on 6 joints) and bypass planning "
+                            "(against OMPL's RRT-Connect when the `bench` extra is installed)")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
     bench.add_argument("--config", default=None, help="run configuration for `bench loop` (default: the shipped one)")
@@ -112,6 +128,10 @@ def _dispatch(args) -> int:
         from rtctl.commands import check
 
         return check(args)
+    if args.command == "plan":
+        from rtctl.guard.commands import plan
+
+        return plan(args)
     if args.command == "model":
         from rtctl.commands import print_model
 

@@ -57,6 +57,11 @@ def check(args) -> int:
           f"controllers: {', '.join(f'{c.name} ({c.type})' for c in cfg.controllers) or 'none'}")
     for line in runtime.bus_budget():
         print(line)
+    from rtctl.daemon import _trajectory_limits
+    from rtctl.guard.commands import check_lines
+
+    for line in check_lines(cfg, _trajectory_limits(cfg)):
+        print(line)
     return EXIT_OK
 
 
@@ -93,7 +98,7 @@ def bench(args) -> int:
         from rtctl.bench.control_socket import bench_control_socket as run, format_table
 
         result = run()
-    elif args.what in ("safety", "trajectory"):
+    elif args.what in ("safety", "trajectory", "guard"):
         from importlib import import_module
 
         module = import_module(f"rtctl.bench.{args.what}")

@@ -15,6 +15,7 @@ Layout of a run configuration (paths are relative to the file)::
     [[controllers]] name, type, joints, divisor, gains …
     [trajectory]  unit, waypoints, smooth, dwell, velocity/acceleration limits
     [safety]      fallback, damping, stale_ticks, position_margin, estop_off_delay
+    [guard]       interference zones and the guard's settings (rtctl.guard.config)
     [telemetry]   path, batch_rows
     [control]     socket
 """
@@ -27,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from rtctl.errors import ConfigError, RtctlError
+from rtctl.guard.config import GuardConfig, check_waypoints, load_guard
 from rtctl.model import Model, load_robot
 from rtctl.timing.rt import RtSettings
 from rtctl.tomltable import Table, load_toml
@@ -96,6 +98,7 @@ class Config:
     telemetry_path: Path | None
     telemetry_batch: int
     socket_path: Path
+    guard: GuardConfig | None = None  # interference zones (robot file and [guard]), if any
 
 
 def default_socket_path() -> Path:
@@ -126,7 +129,11 @@ def load_config(path, *, sim: bool = False) -> Config:
     devices = _devices(t, model, sim_t is not None)
     controllers = _controllers(t, model)
     _check_owners(t, controllers)
-    trajectory = _trajectory(t.table("trajectory", None), model)
+    trajectory_t = t.table("trajectory", None)
+    trajectory = _trajectory(trajectory_t, model)
+    guard = load_guard(t.table("guard", None), robot_file, model)
+    if trajectory is not None:
+        check_waypoints(trajectory_t, guard, trajectory.waypoints)
     safety = _safety(t.table("safety", None))
     tele = t.table("telemetry", None)
     telemetry_path, batch = None, 500
@@ -144,7 +151,7 @@ def load_config(path, *, sim: bool = False) -> Config:
         raise t.error("loop.realtime_factor", "1.0 unless the devices are simulated ([sim] or --sim)")
     t.done()
     return Config(path, robot_file, model, loop, devices, controllers, trajectory, safety, sim_t,
-                  telemetry_path, batch, socket_path)
+                  telemetry_path, batch, socket_path, guard)
 
 
 def _loop(t: Table | None) -> LoopConfig:

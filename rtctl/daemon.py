@@ -29,6 +29,7 @@ from rtctl import logs
 from rtctl.config import load_config
 from rtctl.control_socket import ControlServer
 from rtctl.errors import ConfigError, HardwareError, RtctlError
+from rtctl.guard import run as guarded
 from rtctl.hal import JointCommand, Status
 from rtctl.model.dynamics import gravity as gravity_of
 from rtctl.runtime import build
@@ -66,9 +67,10 @@ class Daemon:
         self.stop_reason: str | None = None
         self.exit_code = EXIT_OK
         self.limits = _trajectory_limits(cfg)
+        self.guard = guarded.runtime_guard(cfg, self.limits)
         self.safety = SafetyStage.from_model(
             self.model, cfg.safety, device_joints=runtime.device_joints,
-            gravity=lambda q: gravity_of(self.model, q))
+            gravity=lambda q: gravity_of(self.model, q), guard=self.guard)
         self.ticker = Ticker(round(1e9 * cfg.loop.period), realtime_factor=cfg.loop.realtime_factor,
                              max_consecutive_overruns=cfg.loop.overrun_limit,
                              spin_margin_ns=round(cfg.loop.spin_us * 1e3))
@@ -128,6 +130,7 @@ class Daemon:
             idx = self.rt.device_joints[i]
             np.put(state.position, idx, dev.state.position)
             np.put(state.velocity, idx, dev.state.velocity)
+        guarded.check_start(self.cfg, state.position)
         self.tick.trajectory = self._initial_trajectory(state.position.copy())
         self.tick.trajectory.sample(0.0, self.rt.ref.q, self.rt.ref.qd, self.rt.ref.qdd)
         self._warm_up()
@@ -159,6 +162,8 @@ class Daemon:
         spare.check(0.0, 1, self.rt.state, statuses, scratch, False, "warm-up")  # → hold
         spare.estop("warm-up")
         spare.check(0.0, 2, self.rt.state, statuses, scratch, True)  # → damped stop
+        if self.guard is not None:
+            self.guard.warm_up()
         for dev in self.rt.devices:
             warm_up = getattr(dev, "warm_up", None)
             if warm_up is not None:
@@ -168,6 +173,8 @@ class Daemon:
         tcfg = self.cfg.trajectory
         if tcfg is None:
             return hold(q0)
+        if self.cfg.guard is not None:
+            return guarded.initial_trajectory(self.cfg, q0, self.limits)
         return through_waypoints(tcfg.waypoints, self.limits, start=q0, smooth=tcfg.smooth, dwell=tcfg.dwell)
 
     def _loop(self, server) -> None:
@@ -254,8 +261,13 @@ class Daemon:
         if points.shape[1] != self.model.nq:
             raise RtctlError(f"expected {self.model.nq} joint values per point, got {points.shape[1]}")
         ref, t = self.rt.ref, self.ticker.sim_time_s
-        self.tick.trajectory = retarget(t, ref.q, ref.qd, ref.qdd, points, self.limits, duration=req.get("duration"))
-        return {"ok": True, "t_start": t, "t_end": self.tick.trajectory.t_end}
+        extra = {}
+        if self.cfg.guard is not None:  # around the interference zones (refused with the reason if it cannot)
+            trajectory, extra = guarded.move_trajectory(self.cfg, t, ref, points, self.limits, req.get("duration"))
+        else:
+            trajectory = retarget(t, ref.q, ref.qd, ref.qdd, points, self.limits, duration=req.get("duration"))
+        self.tick.trajectory = trajectory
+        return {"ok": True, "t_start": t, "t_end": self.tick.trajectory.t_end, **extra}
 
     def _status(self) -> dict:
         s = self.rt.state

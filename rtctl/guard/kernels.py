@@ -1,0 +1,179 @@
+"""The guard's geometry, compiled: point depth, segment entry (Cyrus–Beck), the per-tick check.
+
+Tables as compiled by :class:`rtctl.guard.zones.Scene`: ``rows`` (R, 3) = wᵢ, wⱼ, c of each
+half-plane ``wᵢ qᵢ + wⱼ qⱼ < c`` (unit normal pointing out of the zone), ``cols`` (R, 2) = i, j,
+``pieces`` (P, 3) = first row, end row, zone index. Everything here works on preallocated
+arrays and allocates nothing. The row and code constants live in this module on purpose:
+numba's cache does not notice edits to other modules a kernel depends on.
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+NO_ENTRY = 2.0  # segment_entry's s when the segment enters nothing (s is in [0, 1])
+# rows of the guard's limit table (n columns)
+Q_MIN, Q_MAX, DECEL = range(3)
+N_LIMIT_ROWS = 3
+# the guard's scalar parameters
+DT, MARGIN, DAMPING, CLAMP = range(4)
+N_PARAMS = 4
+# rows of the guard's float work table (n columns): the predicted stop point, the one-tick point
+STOP_POINT, NEXT_POINT = range(2)
+N_WORK_ROWS = 2
+# the guard's report (int64 array): what was violated, which zone or joint, which face
+KIND, WHICH, FACE = range(3)
+N_REPORT = 3
+NONE, ZONE, UPPER_LIMIT, LOWER_LIMIT = range(4)
+# verdicts (rtctl.safety.faults.GuardVerdict) and command modes (rtctl.hal.joints.CommandMode)
+PASS, MODIFIED, STOP = 0, 1, 2
+IMPEDANCE = 1
+
+
+@njit(cache=True)
+def piece_depth(rows, cols, r0, r1, x):  # pragma: no cover - compiled
+    """max over the piece's rows of w·x − c: negative inside the piece, < m inside it inflated by m."""
+    d = -np.inf
+    for r in range(r0, r1):
+        v = rows[r, 0] * x[cols[r, 0]] + rows[r, 1] * x[cols[r, 1]] - rows[r, 2]
+        if v > d:
+            d = v
+    return d
+
+
+@njit(cache=True)
+def clearance(rows, cols, pieces, x):  # pragma: no cover - compiled
+    """(smallest piece depth at x, that piece; +inf and -1 without pieces)."""
+    best, which = np.inf, -1
+    for p in range(pieces.shape[0]):
+        d = piece_depth(rows, cols, pieces[p, 0], pieces[p, 1], x)
+        if d < best:
+            best, which = d, p
+    return best, which
+
+
+@njit(cache=True)
+def clearances(rows, cols, pieces, X, out):  # pragma: no cover - compiled
+    """out[k] = smallest piece depth at X[k] (for sampled trajectories)."""
+    for k in range(X.shape[0]):
+        out[k] = clearance(rows, cols, pieces, X[k])[0]
+
+
+@njit(cache=True)
+def piece_entry(rows, cols, r0, r1, a, b, margin):  # pragma: no cover - compiled
+    """Where a→b enters the open piece inflated by ``margin`` (Cyrus–Beck clipping): (s, row),
+    s in [0, 1] the fraction along the segment (0: a is inside), row the face crossed there
+    (-1 when a is inside); (NO_ENTRY, -1) when the segment stays out."""
+    s_lo, s_hi, face = 0.0, 1.0, -1
+    for r in range(r0, r1):
+        i, j = cols[r, 0], cols[r, 1]
+        wi, wj = rows[r, 0], rows[r, 1]
+        room = rows[r, 2] + margin - (wi * a[i] + wj * a[j])  # > 0: a is on the inner side
+        rate = wi * (b[i] - a[i]) + wj * (b[j] - a[j])
+        if rate == 0.0:
+            if room <= 0.0:
+                return NO_ENTRY, -1
+        elif rate > 0.0:
+            s = room / rate  # leaves the inner side at s
+            if s < s_hi:
+                s_hi = s
+        else:
+            s = room / rate  # reaches the inner side at s
+            if s > s_lo:
+                s_lo, face = s, r
+        if s_lo >= s_hi:
+            return NO_ENTRY, -1
+    return s_lo, face
+
+
+@njit(cache=True)
+def segment_entry(rows, cols, pieces, a, b, margin):  # pragma: no cover - compiled
+    """The first entry of a→b into any piece inflated by ``margin``: (s, piece, face row);
+    (NO_ENTRY, -1, -1) when the segment stays outside all of them."""
+    best, which, face = NO_ENTRY, -1, -1
+    for p in range(pieces.shape[0]):
+        s, r = piece_entry(rows, cols, pieces[p, 0], pieces[p, 1], a, b, margin)
+        if s < best:
+            best, which, face = s, p, r
+    return best, which, face
+
+
+@njit(cache=True)
+def _push_out(i, j, wi, wj, q, qd, q_des, qd_des, tau, mode, damping):  # pragma: no cover - compiled
+    """Clamp along the outward unit normal (wi at joint i, wj at joint j; i == j with wj = 0
+    for a box face or a limit): drop the command's inward component and damp the inward speed.
+    Impedance mode: the drive holds the current position of these joints instead."""
+    inward_speed = wi * qd[i] + wj * qd[j]
+    push = wi * tau[i] + wj * tau[j]
+    if push < 0.0:
+        tau[i] -= push * wi
+        tau[j] -= push * wj
+    if inward_speed < 0.0:
+        tau[i] -= damping * inward_speed * wi
+        tau[j] -= damping * inward_speed * wj
+    if mode == IMPEDANCE:
+        q_des[i] = q[i]
+        q_des[j] = q[j]
+        v = wi * qd_des[i] + wj * qd_des[j]
+        if v < 0.0:
+            qd_des[i] -= v * wi
+            qd_des[j] -= v * wj
+
+
+@njit(cache=True)
+def guard_tick(q, qd, mode, q_des, qd_des, tau, rows, cols, pieces, lim, par, work, report):  # pragma: no cover
+    """The run-time guard for one tick; returns PASS, MODIFIED or STOP and fills ``report``.
+
+    Predicted motion: the command acts for one period dt, then every joint brakes at a common
+    rate so that none exceeds its deceleration limit (a straight stopping path): stop time
+    T = max_j |q̇_j| / a_j, stop point p = q + q̇ (dt + T/2). The segment q→p (and in
+    impedance mode q→q_des) must stay out of every zone inflated by the guard margin and
+    inside the joint limits. On a violation the first one met along q→p is reported; with
+    CLAMP the command is pushed out along the face met (see :func:`_push_out`) unless even the
+    next tick's position q + q̇ dt would be within half the guard margin (then STOP).
+    """
+    n = q.shape[0]
+    dt, margin = par[DT], par[MARGIN]
+    t_stop = 0.0
+    for j in range(n):
+        t = abs(qd[j]) / lim[DECEL, j]
+        if t > t_stop:
+            t_stop = t
+    p, nxt = work[STOP_POINT], work[NEXT_POINT]
+    for j in range(n):
+        p[j] = q[j] + qd[j] * (dt + 0.5 * t_stop)
+        nxt[j] = q[j] + qd[j] * dt
+    s, piece, face = segment_entry(rows, cols, pieces, q, p, margin)
+    report[KIND], report[WHICH], report[FACE] = NONE, -1, -1
+    if s < NO_ENTRY:
+        report[KIND], report[WHICH], report[FACE] = ZONE, pieces[piece, 2], face
+    for j in range(n):  # a limit met before the zone counts first
+        if p[j] > lim[Q_MAX, j] or p[j] < lim[Q_MIN, j]:
+            bound = lim[Q_MAX, j] if p[j] > lim[Q_MAX, j] else lim[Q_MIN, j]
+            sj = 0.0 if p[j] == q[j] else min(max((bound - q[j]) / (p[j] - q[j]), 0.0), 1.0)
+            if sj < s:
+                s = sj
+                report[KIND] = UPPER_LIMIT if p[j] > lim[Q_MAX, j] else LOWER_LIMIT
+                report[WHICH], report[FACE] = j, -1
+    if mode == IMPEDANCE and report[KIND] == NONE:
+        s_des, piece, face = segment_entry(rows, cols, pieces, q, q_des, margin)
+        if s_des < NO_ENTRY:
+            report[KIND], report[WHICH], report[FACE] = ZONE, pieces[piece, 2], face
+    if report[KIND] == NONE:
+        return PASS
+    if par[CLAMP] == 0.0:
+        return STOP
+    near, _ = clearance(rows, cols, pieces, nxt)
+    for j in range(n):
+        if nxt[j] > lim[Q_MAX, j] or nxt[j] < lim[Q_MIN, j]:
+            return STOP
+    if near < 0.5 * margin or report[FACE] < 0 and report[KIND] == ZONE:
+        return STOP  # already inside the band (or the zone): clamping is too late
+    if report[KIND] == ZONE:
+        r = report[FACE]
+        _push_out(cols[r, 0], cols[r, 1], rows[r, 0], rows[r, 1], q, qd, q_des, qd_des, tau, mode, par[DAMPING])
+    else:
+        j = report[WHICH]
+        sign = 1.0 if report[KIND] == LOWER_LIMIT else -1.0  # the outward normal of the free range
+        _push_out(j, j, sign, 0.0, q, qd, q_des, qd_des, tau, mode, par[DAMPING])
+    return MODIFIED
