@@ -79,7 +79,7 @@ def load_guard(run: Table | None, robot_file: Path, model) -> GuardConfig | None
             raise run.error("guard_margin", f"at most half the margin ({0.5 * margin / ang:g} {unit}): planned "
                                             f"paths may use the other half, the guard must not stop them")
         if settings["action"] == "clamp" and settings["guard_margin"] == 0:
-            raise run.error("guard_margin", "> 0 with action = \"clamp\" (the guard stops within half of it)")
+            raise run.error("guard_margin", "> 0 with action = \"clamp\" (it clamps in the outer half, stops in the inner)")
         run.done()
     names = [z.name for z, _ in zones]
     for i, (z, where) in enumerate(zones):

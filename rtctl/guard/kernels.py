@@ -16,14 +16,14 @@ NO_ENTRY = 2.0  # segment_entry's s when the segment enters nothing (s is in [0,
 Q_MIN, Q_MAX, DECEL = range(3)
 N_LIMIT_ROWS = 3
 # the guard's scalar parameters
-DT, MARGIN, DAMPING, CLAMP = range(4)
-N_PARAMS = 4
-# rows of the guard's float work table (n columns): the predicted stop point, the one-tick point
-STOP_POINT, NEXT_POINT = range(2)
-N_WORK_ROWS = 2
-# the guard's report (int64 array): what was violated, which zone or joint, which face
-KIND, WHICH, FACE = range(3)
-N_REPORT = 3
+DT, MARGIN, DAMPING, STIFFNESS, CLAMP = range(5)
+N_PARAMS = 5
+# rows of the guard's float work table (n columns): the predicted stop point
+STOP_POINT = 0
+N_WORK_ROWS = 1
+# the guard's report (int64 array): what was violated, which zone or joint, which face and piece
+KIND, WHICH, FACE, PIECE = range(4)
+N_REPORT = 4
 NONE, ZONE, UPPER_LIMIT, LOWER_LIMIT = range(4)
 # verdicts (rtctl.safety.faults.GuardVerdict) and command modes (rtctl.hal.joints.CommandMode)
 PASS, MODIFIED, STOP = 0, 1, 2
@@ -99,18 +99,20 @@ def segment_entry(rows, cols, pieces, a, b, margin):  # pragma: no cover - compi
 
 
 @njit(cache=True)
-def _push_out(i, j, wi, wj, q, qd, q_des, qd_des, tau, mode, damping):  # pragma: no cover - compiled
+def _push_out(i, j, wi, wj, depth, q, qd, q_des, qd_des, tau, mode, par):  # pragma: no cover - compiled
     """Clamp along the outward unit normal (wi at joint i, wj at joint j; i == j with wj = 0
-    for a box face or a limit): drop the command's inward component and damp the inward speed.
-    Impedance mode: the drive holds the current position of these joints instead."""
+    for a box face or a limit): drop the command's inward component and add a wall force,
+    stiffness × ``depth`` (how far the predicted stop point lies inside the band, which grows
+    with the inward speed squared) + damping × inward speed. Impedance mode: the drive also
+    holds the current position of these joints and gets no inward velocity."""
     inward_speed = wi * qd[i] + wj * qd[j]
     push = wi * tau[i] + wj * tau[j]
     if push < 0.0:
         tau[i] -= push * wi
         tau[j] -= push * wj
-    if inward_speed < 0.0:
-        tau[i] -= damping * inward_speed * wi
-        tau[j] -= damping * inward_speed * wj
+    wall = par[STIFFNESS] * depth - par[DAMPING] * min(inward_speed, 0.0)
+    tau[i] += wall * wi
+    tau[j] += wall * wj
     if mode == IMPEDANCE:
         q_des[i] = q[i]
         q_des[j] = q[j]
@@ -127,53 +129,60 @@ def guard_tick(q, qd, mode, q_des, qd_des, tau, rows, cols, pieces, lim, par, wo
     Predicted motion: the command acts for one period dt, then every joint brakes at a common
     rate so that none exceeds its deceleration limit (a straight stopping path): stop time
     T = max_j |q̇_j| / a_j, stop point p = q + q̇ (dt + T/2). The segment q→p (and in
-    impedance mode q→q_des) must stay out of every zone inflated by the guard margin and
-    inside the joint limits. On a violation the first one met along q→p is reported; with
-    CLAMP the command is pushed out along the face met (see :func:`_push_out`) unless even the
-    next tick's position q + q̇ dt would be within half the guard margin (then STOP).
+    impedance mode q→q_des) must stay out of every zone inflated by the guard margin g and
+    inside the joint limits; the first violation met along q→p is reported.
+
+    Without CLAMP a violation is a STOP. With CLAMP the guard margin is two bands, like the
+    safety stage's soft and hard limits: a stopping path that enters the outer half
+    (zone ⊕ g, or within g/2 of a limit) is clamped — the command is pushed out along every
+    face that separates q from the zone (:func:`_push_out`) — and one that reaches the inner
+    half (zone ⊕ g/2, or past a limit) is a STOP, early enough for the fallback to brake.
+    ``par``: DT, MARGIN (g), DAMPING and STIFFNESS of the clamp's wall, CLAMP.
     """
     n = q.shape[0]
-    dt, margin = par[DT], par[MARGIN]
+    dt, margin, clamp = par[DT], par[MARGIN], par[CLAMP] != 0.0
+    limit_band = 0.5 * margin if clamp else 0.0
     t_stop = 0.0
     for j in range(n):
         t = abs(qd[j]) / lim[DECEL, j]
         if t > t_stop:
             t_stop = t
-    p, nxt = work[STOP_POINT], work[NEXT_POINT]
+    p = work[STOP_POINT]
     for j in range(n):
         p[j] = q[j] + qd[j] * (dt + 0.5 * t_stop)
-        nxt[j] = q[j] + qd[j] * dt
     s, piece, face = segment_entry(rows, cols, pieces, q, p, margin)
-    report[KIND], report[WHICH], report[FACE] = NONE, -1, -1
+    report[KIND], report[WHICH], report[FACE], report[PIECE] = NONE, -1, -1, -1
     if s < NO_ENTRY:
-        report[KIND], report[WHICH], report[FACE] = ZONE, pieces[piece, 2], face
+        report[KIND], report[WHICH], report[FACE], report[PIECE] = ZONE, pieces[piece, 2], face, piece
+    stop = False
     for j in range(n):  # a limit met before the zone counts first
-        if p[j] > lim[Q_MAX, j] or p[j] < lim[Q_MIN, j]:
-            bound = lim[Q_MAX, j] if p[j] > lim[Q_MAX, j] else lim[Q_MIN, j]
+        hi, lo = lim[Q_MAX, j] - limit_band, lim[Q_MIN, j] + limit_band
+        if p[j] > hi or p[j] < lo:
+            stop = stop or p[j] > lim[Q_MAX, j] or p[j] < lim[Q_MIN, j]
+            bound = hi if p[j] > hi else lo
             sj = 0.0 if p[j] == q[j] else min(max((bound - q[j]) / (p[j] - q[j]), 0.0), 1.0)
             if sj < s:
                 s = sj
-                report[KIND] = UPPER_LIMIT if p[j] > lim[Q_MAX, j] else LOWER_LIMIT
+                report[KIND] = UPPER_LIMIT if p[j] > hi else LOWER_LIMIT
                 report[WHICH], report[FACE] = j, -1
     if mode == IMPEDANCE and report[KIND] == NONE:
         s_des, piece, face = segment_entry(rows, cols, pieces, q, q_des, margin)
         if s_des < NO_ENTRY:
-            report[KIND], report[WHICH], report[FACE] = ZONE, pieces[piece, 2], face
+            report[KIND], report[WHICH], report[FACE], report[PIECE] = ZONE, pieces[piece, 2], face, piece
     if report[KIND] == NONE:
         return PASS
-    if par[CLAMP] == 0.0:
+    if not clamp or stop or segment_entry(rows, cols, pieces, q, p, 0.5 * margin)[0] < NO_ENTRY:
         return STOP
-    near, _ = clearance(rows, cols, pieces, nxt)
-    for j in range(n):
-        if nxt[j] > lim[Q_MAX, j] or nxt[j] < lim[Q_MIN, j]:
-            return STOP
-    if near < 0.5 * margin or report[FACE] < 0 and report[KIND] == ZONE:
-        return STOP  # already inside the band (or the zone): clamping is too late
-    if report[KIND] == ZONE:
-        r = report[FACE]
-        _push_out(cols[r, 0], cols[r, 1], rows[r, 0], rows[r, 1], q, qd, q_des, qd_des, tau, mode, par[DAMPING])
+    if report[KIND] == ZONE:  # push out along every face that separates q from the inner band
+        piece = report[PIECE]
+        for r in range(pieces[piece, 0], pieces[piece, 1]):
+            i, j, wi, wj = cols[r, 0], cols[r, 1], rows[r, 0], rows[r, 1]
+            if wi * q[i] + wj * q[j] >= rows[r, 2] + 0.5 * margin:
+                depth = max(rows[r, 2] + margin - (wi * p[i] + wj * p[j]), 0.0)
+                _push_out(i, j, wi, wj, depth, q, qd, q_des, qd_des, tau, mode, par)
     else:
         j = report[WHICH]
-        sign = 1.0 if report[KIND] == LOWER_LIMIT else -1.0  # the outward normal of the free range
-        _push_out(j, j, sign, 0.0, q, qd, q_des, qd_des, tau, mode, par[DAMPING])
+        upper = report[KIND] == UPPER_LIMIT
+        depth = max(p[j] - lim[Q_MAX, j] + limit_band, 0.0) if upper else max(lim[Q_MIN, j] + limit_band - p[j], 0.0)
+        _push_out(j, j, -1.0 if upper else 1.0, 0.0, depth, q, qd, q_des, qd_des, tau, mode, par)
     return MODIFIED

@@ -20,7 +20,7 @@ def runtime_guard(cfg, limits) -> RuntimeGuard | None:
         return None
     decel = g.deceleration if g.deceleration is not None else limits.a_max
     return RuntimeGuard(g.scene, decel, cfg.loop.period, margin=g.guard_margin, action=g.action,
-                        damping=cfg.safety.damping)
+                        damping=cfg.safety.damping, stiffness=cfg.safety.hold_stiffness)
 
 
 def check_start(cfg, q) -> None:

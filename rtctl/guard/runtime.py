@@ -7,10 +7,11 @@ deceleration limits) must stay out of every zone inflated by the guard margin an
 joint limits. On a violation the configured action applies:
 
 * ``"stop"`` — the stage latches a GUARD fault and its fallback (hold or damp) stops the arm;
-* ``"clamp"`` — the command's component into the zone is removed and the inward speed
-  damped (the robot slides along the zone instead of entering it); the controllers stay in
-  charge. If even the next tick's position would be within half the guard margin the guard
-  stops instead.
+* ``"clamp"`` — while the stopping path only enters the outer half of the guard margin, the
+  command's component into the zone is removed and a wall pushes back, in proportion to how
+  deep the predicted stop point lies in the band and to the inward speed (the robot slides
+  along the zone instead of entering it; the controllers stay in charge). A stopping path
+  that reaches the inner half stops as above.
 
 A ``guard`` event naming the zone (or the limit) starts each episode; an episode ends after
 :data:`QUIET_TICKS` ticks without a violation. Nothing is allocated unless an episode starts.
@@ -29,10 +30,11 @@ ACTIONS = ("stop", "clamp")
 class RuntimeGuard:
     """``deceleration``: rad/s² (m/s²) per joint or one for all — what the stopping path may
     assume; ``dt``: the loop period; ``margin``: the guard margin (≥ 0, ≥ a hair for clamp);
-    ``damping``: N·m·s/rad for clamping."""
+    ``damping`` (N·m·s/rad) and ``stiffness`` (N·m/rad): the clamp's wall (the safety stage's
+    hold gains, in a run)."""
 
     def __init__(self, scene: Scene, deceleration, dt: float, *, margin: float = 0.0, action: str = "stop",
-                 damping: float = 5.0):
+                 damping: float = 5.0, stiffness: float = 50.0):
         n = scene.n
         decel = np.broadcast_to(np.asarray(deceleration, float), (n,))
         if not np.all(np.isfinite(decel) & (decel > 0)):
@@ -42,15 +44,15 @@ class RuntimeGuard:
         if action not in ACTIONS:
             raise ValueError(f"action must be one of {ACTIONS}, not {action!r}")
         if action == "clamp" and margin <= 0:
-            raise ValueError("clamping needs a guard margin > 0 (it stops within half of it)")
-        if not (np.isfinite(damping) and damping >= 0):
-            raise ValueError("damping must be finite and >= 0")
+            raise ValueError("clamping needs a guard margin > 0 (it clamps in its outer half)")
+        if not (np.isfinite(damping) and damping >= 0 and np.isfinite(stiffness) and stiffness >= 0):
+            raise ValueError("damping and stiffness must be finite and >= 0")
         self.scene, self.action = scene, action
         self.rows, self.cols, self.pieces = (np.ascontiguousarray(a) for a in scene.tables())
         self.lim = np.empty((k.N_LIMIT_ROWS, n))
         self.lim[k.Q_MIN], self.lim[k.Q_MAX], self.lim[k.DECEL] = scene.q_min, scene.q_max, decel
         self.par = np.zeros(k.N_PARAMS)
-        self.par[k.DT], self.par[k.MARGIN], self.par[k.DAMPING] = dt, margin, damping
+        self.par[k.DT], self.par[k.MARGIN], self.par[k.DAMPING], self.par[k.STIFFNESS] = dt, margin, damping, stiffness
         self.par[k.CLAMP] = 1.0 if action == "clamp" else 0.0
         self.work = np.zeros((k.N_WORK_ROWS, n))
         self.report = np.zeros(k.N_REPORT, dtype=np.int64)
