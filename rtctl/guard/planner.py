@@ -62,7 +62,7 @@ def plan_path(scene: Scene, q0, q1, *, resolution: float = DEFAULT_RESOLUTION, m
     bad = point_violation(scene, q1)
     if bad is not None:
         return Plan(False, None, "none", f"the target is {bad}")
-    margin = min(scene.margin, max(0.0, k.clearance(*scene.tables(), q0)[0]) * (1 - 1e-6))
+    margin = min(scene.margin, max(0.0, 0.99 * k.clearance(*scene.tables(), q0)[0] - 2e-9))  # see plan_inflation
     crossing = segment_violation(scene, q0, q1, margin)
     if crossing is None:
         return Plan(True, np.array([q0, q1]), "straight", margin=margin)

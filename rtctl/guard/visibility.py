@@ -23,7 +23,7 @@ _INFLATE = 1e-6  # relative: the graph is built on a hair more margin than is ch
 def plan_inflation(margin: float) -> float:
     """The margin the graph is built with: the checked one plus a relative hair, so that a path
     along an offset edge is not rejected by the exact check for a rounding."""
-    return margin * (1.0 + _INFLATE) + 1e-9
+    return margin * (1.0 + _INFLATE) + 1e-9 if margin > 0 else 0.0
 
 
 class VisibilityMap:

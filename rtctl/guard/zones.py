@@ -200,6 +200,7 @@ class Scene:
         """The margin-inflated piece in the (q_plane[0], q_plane[1]) plane, as a shapely polygon
         (mitred offset; a one-joint piece is a band across ``bounds`` = (lo0, lo1, hi0, hi1))."""
         part = self.parts[piece]
+        margin = margin if margin > 1e-12 else 0.0  # GEOS empties a polygon buffered by a subnormal distance
         if isinstance(part, Polygon):
             v = part.vertices if part.joints == tuple(plane) else part.vertices[:, ::-1]
             return shapely.Polygon(v).buffer(margin, join_style="mitre", mitre_limit=_MITRE_LIMIT)
