@@ -31,13 +31,16 @@ IMPEDANCE = 1
 
 
 @njit(cache=True)
-def piece_depth(rows, cols, r0, r1, x):  # pragma: no cover - compiled
-    """max over the piece's rows of w·x − c: negative inside the piece, < m inside it inflated by m."""
+def piece_depth(rows, cols, r0, r1, x, enough=np.inf):  # pragma: no cover - compiled
+    """max over the piece's rows of w·x − c: negative inside the piece, < m inside it inflated by
+    m. Stops early once it reaches ``enough`` (the caller only needs to know it is that far)."""
     d = -np.inf
     for r in range(r0, r1):
         v = rows[r, 0] * x[cols[r, 0]] + rows[r, 1] * x[cols[r, 1]] - rows[r, 2]
         if v > d:
             d = v
+            if d >= enough:
+                return d
     return d
 
 
@@ -46,7 +49,7 @@ def clearance(rows, cols, pieces, x):  # pragma: no cover - compiled
     """(smallest piece depth at x, that piece; +inf and -1 without pieces)."""
     best, which = np.inf, -1
     for p in range(pieces.shape[0]):
-        d = piece_depth(rows, cols, pieces[p, 0], pieces[p, 1], x)
+        d = piece_depth(rows, cols, pieces[p, 0], pieces[p, 1], x, best)
         if d < best:
             best, which = d, p
     return best, which
@@ -63,24 +66,25 @@ def clearances(rows, cols, pieces, X, out):  # pragma: no cover - compiled
 def piece_entry(rows, cols, r0, r1, a, b, margin):  # pragma: no cover - compiled
     """Where a→b enters the open piece inflated by ``margin`` (Cyrus–Beck clipping): (s, row),
     s in [0, 1] the fraction along the segment (0: a is inside), row the face crossed there
-    (-1 when a is inside); (NO_ENTRY, -1) when the segment stays out."""
+    (-1 when a is inside); (NO_ENTRY, -1) when the segment stays out. A face that a lies
+    outside of and does not cross within the segment settles it at once (the common case for
+    a zone far from a short segment)."""
     s_lo, s_hi, face = 0.0, 1.0, -1
     for r in range(r0, r1):
         i, j = cols[r, 0], cols[r, 1]
         wi, wj = rows[r, 0], rows[r, 1]
         room = rows[r, 2] + margin - (wi * a[i] + wj * a[j])  # > 0: a is on the inner side
         rate = wi * (b[i] - a[i]) + wj * (b[j] - a[j])
-        if rate == 0.0:
-            if room <= 0.0:
+        if room <= 0.0:
+            if rate >= 0.0 or room <= rate:  # never reaches the inner side for s in [0, 1)
                 return NO_ENTRY, -1
+            s = room / rate  # reaches the inner side at s
+            if s > s_lo:
+                s_lo, face = s, r
         elif rate > 0.0:
             s = room / rate  # leaves the inner side at s
             if s < s_hi:
                 s_hi = s
-        else:
-            s = room / rate  # reaches the inner side at s
-            if s > s_lo:
-                s_lo, face = s, r
         if s_lo >= s_hi:
             return NO_ENTRY, -1
     return s_lo, face
@@ -186,3 +190,35 @@ def guard_tick(q, qd, mode, q_des, qd_des, tau, rows, cols, pieces, lim, par, wo
         depth = max(p[j] - lim[Q_MAX, j] + limit_band, 0.0) if upper else max(lim[Q_MIN, j] + limit_band - p[j], 0.0)
         _push_out(j, j, -1.0 if upper else 1.0, 0.0, depth, q, qd, q_des, qd_des, tau, mode, par)
     return MODIFIED
+
+
+# ---- packed arguments: fewer arrays for numba's dispatcher to inspect on every call ----------
+_HEADER = 3  # it[0] = rows R, it[1] = pieces P, it[2] = joints n
+
+
+def pack(rows, cols, pieces, lim, par, work, report):
+    """(fl, it): the guard's float and integer tables in two flat arrays, and views of each
+    table into them (rows, cols, pieces, lim, par, work, report) for the caller to keep."""
+    R, P, n = rows.shape[0], pieces.shape[0], lim.shape[1]
+    fl = np.concatenate([np.ravel(rows), np.ravel(lim), par, np.ravel(work)]).astype(np.float64)
+    it = np.concatenate([[R, P, n], np.ravel(cols), np.ravel(pieces), report]).astype(np.int64)
+    f = np.cumsum([0, 3 * R, N_LIMIT_ROWS * n, N_PARAMS, N_WORK_ROWS * n])
+    i = np.cumsum([_HEADER, 2 * R, 3 * P, N_REPORT])
+    views = (fl[f[0]:f[1]].reshape(R, 3), it[i[0]:i[1]].reshape(R, 2), it[i[1]:i[2]].reshape(P, 3),
+             fl[f[1]:f[2]].reshape(N_LIMIT_ROWS, n), fl[f[2]:f[3]], fl[f[3]:f[4]].reshape(N_WORK_ROWS, n),
+             it[i[2]:i[3]])
+    return fl, it, views
+
+
+@njit(cache=True)
+def guard_tick_packed(q, qd, mode, q_des, qd_des, tau, fl, it):  # pragma: no cover - compiled
+    """:func:`guard_tick` on the tables of :func:`pack`."""
+    R, P, n = it[0], it[1], it[2]
+    f1 = 3 * R
+    f2 = f1 + N_LIMIT_ROWS * n
+    f3 = f2 + N_PARAMS
+    i1 = _HEADER + 2 * R
+    i2 = i1 + 3 * P
+    return guard_tick(q, qd, mode, q_des, qd_des, tau, fl[:f1].reshape((R, 3)), it[_HEADER:i1].reshape((R, 2)),
+                      it[i1:i2].reshape((P, 3)), fl[f1:f2].reshape((N_LIMIT_ROWS, n)), fl[f2:f3],
+                      fl[f3:f3 + N_WORK_ROWS * n].reshape((N_WORK_ROWS, n)), it[i2:i2 + N_REPORT])

@@ -48,14 +48,14 @@ class RuntimeGuard:
         if not (np.isfinite(damping) and damping >= 0 and np.isfinite(stiffness) and stiffness >= 0):
             raise ValueError("damping and stiffness must be finite and >= 0")
         self.scene, self.action = scene, action
-        self.rows, self.cols, self.pieces = (np.ascontiguousarray(a) for a in scene.tables())
-        self.lim = np.empty((k.N_LIMIT_ROWS, n))
-        self.lim[k.Q_MIN], self.lim[k.Q_MAX], self.lim[k.DECEL] = scene.q_min, scene.q_max, decel
-        self.par = np.zeros(k.N_PARAMS)
-        self.par[k.DT], self.par[k.MARGIN], self.par[k.DAMPING], self.par[k.STIFFNESS] = dt, margin, damping, stiffness
-        self.par[k.CLAMP] = 1.0 if action == "clamp" else 0.0
-        self.work = np.zeros((k.N_WORK_ROWS, n))
-        self.report = np.zeros(k.N_REPORT, dtype=np.int64)
+        lim = np.empty((k.N_LIMIT_ROWS, n))
+        lim[k.Q_MIN], lim[k.Q_MAX], lim[k.DECEL] = scene.q_min, scene.q_max, decel
+        par = np.zeros(k.N_PARAMS)
+        par[k.DT], par[k.MARGIN], par[k.DAMPING], par[k.STIFFNESS] = dt, margin, damping, stiffness
+        par[k.CLAMP] = 1.0 if action == "clamp" else 0.0
+        self.fl, self.it, views = k.pack(*scene.tables(), lim, par, np.zeros((k.N_WORK_ROWS, n)),
+                                         np.zeros(k.N_REPORT, dtype=np.int64))
+        self.rows, self.cols, self.pieces, self.lim, self.par, self.work, self.report = views
         self.reason = ""
         self.event_due = False  # True on the tick an episode starts (the stage emits the event)
         self._event: dict = {}
@@ -70,9 +70,8 @@ class RuntimeGuard:
         return self.lim[k.DECEL]
 
     def check(self, t: float, state, command) -> int:
-        verdict = k.guard_tick(state.position, state.velocity, int(command.mode), command.q_des, command.qd_des,
-                               command.tau_ff, self.rows, self.cols, self.pieces, self.lim, self.par, self.work,
-                               self.report)
+        verdict = k.guard_tick_packed(state.position, state.velocity, int(command.mode), command.q_des,
+                                      command.qd_des, command.tau_ff, self.fl, self.it)
         if verdict == k.PASS:
             self._quiet += 1
             self.event_due = False
@@ -94,9 +93,8 @@ class RuntimeGuard:
         n = self.scene.n
         state, command = JointState(n), JointCommand(n)
         state.position[:] = np.clip(0.0, self.scene.q_min, self.scene.q_max)
-        k.guard_tick(state.position, state.velocity, int(command.mode), command.q_des, command.qd_des,
-                     command.tau_ff, self.rows, self.cols, self.pieces, self.lim, self.par,
-                     np.zeros_like(self.work), np.zeros_like(self.report))
+        k.guard_tick_packed(state.position, state.velocity, int(command.mode), command.q_des, command.qd_des,
+                            command.tau_ff, self.fl.copy(), self.it.copy())
 
     def _describe(self, state, verdict) -> None:
         kind, which = int(self.report[k.KIND]), int(self.report[k.WHICH])

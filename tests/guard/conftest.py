@@ -1,4 +1,10 @@
+import sys
+from pathlib import Path
+
 import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "runtime"))
+from runtime_helpers import daemon  # noqa: E402,F401  (fixture)
 
 
 @pytest.fixture

@@ -71,6 +71,12 @@ fault_off_delay = 1.0
 {controller}{guard}"""
 
 
+def rtctl(*args, timeout=120, env=None):
+    """``rtctl ARGS…`` as a user runs it (with the test controllers registered): CompletedProcess."""
+    return subprocess.run([sys.executable, str(HERE / "rtctl_with_test_controllers.py"), *map(str, args)],
+                          capture_output=True, text=True, timeout=timeout, cwd=ROOT, env=env)
+
+
 def rtctl_run(config, tmp_path, *extra, env=None, timeout=180):
     """``rtctl run CONFIG`` with the step controller registered: (returncode, summary, telemetry, stderr)."""
     telemetry, summary = tmp_path / "run.msgpack", tmp_path / "summary.json"
