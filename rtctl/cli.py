@@ -48,11 +48,13 @@ def _parser() -> argparse.ArgumentParser:
 
     plan = sub.add_parser("plan", help="plan a path around the interference zones (and draw it)",
                           description="Plan a joint-space path from the start (the simulator's initial_q, or "
-                                      "--from) to --to around the zones of CONFIG (robot file and [[guard.zones]]): "
-                                      "the shortest path in a two-joint plane, a resolution-complete grid search "
-                                      "otherwise. Prints the path; exit 2 when there is none, with the reason.")
+                                      "--from) to --to — or along CONFIG's trajectory — around the zones of CONFIG "
+                                      "(robot file and [[guard.zones]]): the shortest path in a two-joint plane, a "
+                                      "resolution-complete grid search otherwise. Prints the path; exit 2 when there "
+                                      "is none, with the reason.")
     plan.add_argument("config", help="run configuration (TOML)")
-    plan.add_argument("--to", type=float, nargs="+", required=True, metavar="Q", help="target joint positions")
+    plan.add_argument("--to", type=float, nargs="+", metavar="Q",
+                      help="target joint positions (default: the configuration's trajectory waypoints)")
     plan.add_argument("--from", dest="start", type=float, nargs="+", metavar="Q",
                       help="start joint positions (default: the simulator's initial_q)")
     plan.add_argument("--deg", action="store_true", help="positions in degrees (revolute joints)")

@@ -8,7 +8,6 @@ import numpy as np
 from rtctl.errors import ConfigError, GuardError
 from rtctl.guard.feasibility import point_violation
 from rtctl.guard.motion import plan_route, route_trajectory
-from rtctl.guard.planner import plan_path
 
 
 def sim_start(cfg):
@@ -63,7 +62,8 @@ def check_lines(cfg, limits) -> list[str]:
 
 
 def plan(args) -> int:
-    """``rtctl plan CONFIG --to …``: print the path around the zones, optionally draw it."""
+    """``rtctl plan CONFIG [--to …]``: print the path around the zones (to the target, or along the
+    configuration's trajectory), optionally draw it."""
     from rtctl.config import load_config
     from rtctl.daemon import _trajectory_limits
 
@@ -80,32 +80,41 @@ def plan(args) -> int:
     start = points.get("--from", sim_start(cfg))
     if start is None:
         raise ConfigError("<command line>", "--from", "the start (this configuration has no [sim] initial_q)")
+    if "--to" in points:
+        targets = points["--to"][None]
+    elif cfg.trajectory is not None:
+        targets = cfg.trajectory.waypoints
+    else:
+        raise ConfigError("<command line>", "--to", "a target (this configuration has no [trajectory])")
+    scene, unit = cfg.guard.scene, "deg" if args.deg else "rad"
+    print(f"start  {_fmt(start, args.deg)} {unit}")
     t0 = time.perf_counter()
-    result = plan_path(cfg.guard.scene, start, points["--to"], resolution=cfg.guard.resolution)
-    ms = (time.perf_counter() - t0) * 1e3
-    unit = "deg" if args.deg else "rad"
-    print(f"start  {_fmt(start, args.deg)} {unit}\ntarget {_fmt(points['--to'], args.deg)} {unit}")
-    if not result.found:
-        print(f"no path: {result.reason} (searched in {ms:.1f} ms)")
+    try:
+        route = plan_route(scene, start, targets, resolution=cfg.guard.resolution, what="target")
+    except GuardError as e:
+        print(f"no path: {e} (searched in {(time.perf_counter() - t0) * 1e3:.1f} ms)")
         if args.plot:
-            _plot(cfg, start, points["--to"], None, args.plot)
-        raise GuardError(result.reason)
-    limits = _trajectory_limits(cfg)
-    route = plan_route(cfg.guard.scene, start, points["--to"], resolution=cfg.guard.resolution)
-    trajectory, _ = route_trajectory(cfg.guard.scene, route, limits)
-    straight = float(np.linalg.norm(points["--to"] - start))
-    print(f"{'straight: clear' if result.crossing is None else 'the straight path ' + str(result.crossing)}")
-    print(f"path ({result.method}, {len(result.path)} points, {result.length:.4g} rad; straight "
-          f"{straight:.4g} rad), planned in {ms:.1f} ms, moves in {trajectory.duration:.3f} s:")
-    for p in result.path:
-        print(f"  {_fmt(p, args.deg)}")
+            _plot(cfg, start, targets[-1], None, args.plot)
+        raise
+    ms = (time.perf_counter() - t0) * 1e3
+    trajectory, smooth = route_trajectory(scene, route, _trajectory_limits(cfg),
+                                          smooth=cfg.trajectory.smooth if "--to" not in points else False)
+    for i, leg in enumerate(route.legs):
+        straight = float(np.linalg.norm(leg.path[-1] - leg.path[0]))
+        print(f"target {_fmt(leg.path[-1], args.deg)} {unit}: " +
+              ("straight, clear" if leg.crossing is None else f"the straight path {leg.crossing}") +
+              f"\n  path ({leg.method}, {len(leg.path)} points, {leg.length:.4g} rad; straight {straight:.4g} rad):")
+        for p in leg.path[1:]:
+            print(f"    {_fmt(p, args.deg)}")
+    print(f"planned in {ms:.1f} ms; {route.length:.4g} rad in all, moves in {trajectory.duration:.3f} s "
+          f"({'smooth' if smooth else 'stopping at every point'})")
     if args.plot:
-        _plot(cfg, start, points["--to"], result.path, args.plot)
+        _plot(cfg, start, targets[-1], route.points, args.plot, asked=np.vstack([start, targets]))
     return 0
 
 
-def _plot(cfg, start, target, path, out) -> None:
+def _plot(cfg, start, target, path, out, asked=None) -> None:
     from rtctl.guard.plot import plot_plan
 
-    plot_plan(cfg.guard.scene, start, target, path, out, revolute=cfg.model.joint_types == 0)
+    plot_plan(cfg.guard.scene, start, target, path, out, revolute=cfg.model.joint_types == 0, asked=asked)
     print(out)

@@ -30,9 +30,10 @@ def planes(scene: Scene) -> list[tuple[int, int]]:
     return out
 
 
-def plot_plan(scene: Scene, start, target, path, out, revolute=None) -> None:
+def plot_plan(scene: Scene, start, target, path, out, revolute=None, asked=None) -> None:
     """Write a PNG: one panel per plane of :func:`planes`; ``path`` (k × n) may be None;
-    ``revolute``: per joint, True to draw it in degrees (default: all)."""
+    ``revolute``: per joint, True to draw it in degrees (default: all); ``asked``: the points
+    asked for (start first), drawn joined straight for comparison."""
     revolute = np.ones(scene.n, bool) if revolute is None else np.asarray(revolute, bool)
     Figure = _figure_class()
     panels = planes(scene)
@@ -40,11 +41,11 @@ def plot_plan(scene: Scene, start, target, path, out, revolute=None) -> None:
     rows = math.ceil(len(panels) / cols)
     fig = Figure(figsize=(6.0 * cols, 5.5 * rows), layout="constrained")
     for k, plane in enumerate(panels):
-        _panel(fig.add_subplot(rows, cols, k + 1), scene, plane, start, target, path, revolute)
+        _panel(fig.add_subplot(rows, cols, k + 1), scene, plane, start, target, path, revolute, asked)
     fig.savefig(out, dpi=110)
 
 
-def _panel(ax, scene: Scene, plane, start, target, path, revolute) -> None:
+def _panel(ax, scene: Scene, plane, start, target, path, revolute, asked) -> None:
     i, j = plane
     unit = np.where(revolute[[i, j]], 180.0 / np.pi, 1.0)
     lo = np.where(np.isfinite(scene.q_min[[i, j]]), scene.q_min[[i, j]], -np.pi)
@@ -71,6 +72,8 @@ def _panel(ax, scene: Scene, plane, start, target, path, revolute) -> None:
             if not polygon.is_empty:
                 x, y = np.asarray(polygon.exterior.coords).T
                 ax.plot(x * unit[0], y * unit[1], ls="--", lw=0.8, color=colour)
+    if asked is not None:
+        ax.plot(asked[:, i] * unit[0], asked[:, j] * unit[1], ":", color="0.4", lw=1.2, label="straight")
     if path is not None:
         ax.plot(path[:, i] * unit[0], path[:, j] * unit[1], "k.-", lw=1.5, ms=5, label="path")
     ax.plot(start[i] * unit[0], start[j] * unit[1], "go", ms=8, label="start")
