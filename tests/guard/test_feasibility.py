@@ -13,7 +13,7 @@ from test_zones import SQUARE, convex
 point = st.tuples(st.floats(-1.5, 1.5), st.floats(-1.5, 1.5)).map(np.array)
 
 
-@settings(max_examples=120, deadline=None)
+@settings(max_examples=80, deadline=None)
 @given(convex, point, point, st.sampled_from([0.0, 0.05, 0.2]))
 def test_segment_entry_agrees_with_exact_rational_geometry(vertices, a, b, m):
     scene = Scene([Zone("z", [Polygon((0, 1), vertices)])], [-5, -5], [5, 5], margin=m)
