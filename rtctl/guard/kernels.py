@@ -2,9 +2,12 @@
 
 Tables as compiled by :class:`rtctl.guard.zones.Scene`: ``rows`` (R, 3) = wᵢ, wⱼ, c of each
 half-plane ``wᵢ qᵢ + wⱼ qⱼ < c`` (unit normal pointing out of the zone), ``cols`` (R, 2) = i, j,
-``pieces`` (P, 3) = first row, end row, zone index. Everything here works on preallocated
-arrays and allocates nothing. The row and code constants live in this module on purpose:
-numba's cache does not notice edits to other modules a kernel depends on.
+``pieces`` (P, 3) = first row, end row, zone index (indices unsigned: numba then skips the
+negative-index fix-up on every access, which measured 2× in these loops). Everything here works
+on preallocated arrays and allocates nothing. ``error_model="numpy"``: no division here can be
+by zero (each is guarded), so the kernels carry no exception paths. The row and code constants
+live in this module on purpose: numba's cache does not notice edits to other modules a kernel
+depends on.
 """
 from __future__ import annotations
 
@@ -21,7 +24,8 @@ N_PARAMS = 5
 # rows of the guard's float work table (n columns): the predicted stop point
 STOP_POINT = 0
 N_WORK_ROWS = 1
-# the guard's report (int64 array): what was violated, which zone or joint, which face and piece
+# the guard's report (int64 array): what was violated, which zone or joint, which face and piece;
+# then one separating-face hint per piece (segment_entry_hinted), initially each piece's first row
 KIND, WHICH, FACE, PIECE = range(4)
 N_REPORT = 4
 NONE, ZONE, UPPER_LIMIT, LOWER_LIMIT = range(4)
@@ -30,7 +34,7 @@ PASS, MODIFIED, STOP = 0, 1, 2
 IMPEDANCE = 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def piece_depth(rows, cols, r0, r1, x, enough=np.inf):  # pragma: no cover - compiled
     """max over the piece's rows of w·x − c: negative inside the piece, < m inside it inflated by
     m. Stops early once it reaches ``enough`` (the caller only needs to know it is that far)."""
@@ -44,7 +48,7 @@ def piece_depth(rows, cols, r0, r1, x, enough=np.inf):  # pragma: no cover - com
     return d
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def clearance(rows, cols, pieces, x):  # pragma: no cover - compiled
     """(smallest piece depth at x, that piece; +inf and -1 without pieces)."""
     best, which = np.inf, -1
@@ -55,20 +59,36 @@ def clearance(rows, cols, pieces, x):  # pragma: no cover - compiled
     return best, which
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def clearances(rows, cols, pieces, X, out):  # pragma: no cover - compiled
     """out[k] = smallest piece depth at X[k] (for sampled trajectories)."""
     for k in range(X.shape[0]):
         out[k] = clearance(rows, cols, pieces, X[k])[0]
 
 
-@njit(cache=True)
-def piece_entry(rows, cols, r0, r1, a, b, margin):  # pragma: no cover - compiled
-    """Where a→b enters the open piece inflated by ``margin`` (Cyrus–Beck clipping): (s, row),
-    s in [0, 1] the fraction along the segment (0: a is inside), row the face crossed there
-    (-1 when a is inside); (NO_ENTRY, -1) when the segment stays out. A face that a lies
-    outside of and does not cross within the segment settles it at once (the common case for
-    a zone far from a short segment)."""
+@njit(cache=True, error_model="numpy", inline="always")  # called per face: inlined, a call would cost more than the test
+def _outside(rows, cols, r, a, b, margin):  # pragma: no cover - compiled
+    """Both ends of a→b lie outside face r of the piece inflated by ``margin``."""
+    i, j = cols[r, 0], cols[r, 1]
+    edge = rows[r, 2] + margin
+    return rows[r, 0] * a[i] + rows[r, 1] * a[j] >= edge and rows[r, 0] * b[i] + rows[r, 1] * b[j] >= edge
+
+
+@njit(cache=True, error_model="numpy")
+def separating_face(rows, cols, r0, r1, a, b, margin):  # pragma: no cover - compiled
+    """A face of the piece that both ends of a→b lie outside of (the segment then misses the
+    piece), or -1. Cheap: no divisions."""
+    for r in range(r0, r1):
+        if _outside(rows, cols, r, a, b, margin):
+            return r
+    return -1
+
+
+@njit(cache=True, error_model="numpy")
+def clip(rows, cols, r0, r1, a, b, margin):  # pragma: no cover - compiled
+    """Cyrus–Beck clipping of a→b against the open piece inflated by ``margin``: (s, row), s in
+    [0, 1] where the segment enters (0: a is inside), row the face crossed there (-1 when a is
+    inside); (NO_ENTRY, -1) when it stays out."""
     s_lo, s_hi, face = 0.0, 1.0, -1
     for r in range(r0, r1):
         i, j = cols[r, 0], cols[r, 1]
@@ -90,7 +110,15 @@ def piece_entry(rows, cols, r0, r1, a, b, margin):  # pragma: no cover - compile
     return s_lo, face
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
+def piece_entry(rows, cols, r0, r1, a, b, margin):  # pragma: no cover - compiled
+    """Where a→b enters the open piece inflated by ``margin``: see :func:`clip`."""
+    if separating_face(rows, cols, r0, r1, a, b, margin) >= 0:
+        return NO_ENTRY, -1
+    return clip(rows, cols, r0, r1, a, b, margin)
+
+
+@njit(cache=True, error_model="numpy")
 def segment_entry(rows, cols, pieces, a, b, margin):  # pragma: no cover - compiled
     """The first entry of a→b into any piece inflated by ``margin``: (s, piece, face row);
     (NO_ENTRY, -1, -1) when the segment stays outside all of them."""
@@ -102,7 +130,27 @@ def segment_entry(rows, cols, pieces, a, b, margin):  # pragma: no cover - compi
     return best, which, face
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
+def segment_entry_hinted(rows, cols, pieces, a, b, margin, hints):  # pragma: no cover - compiled
+    """:func:`segment_entry` for a segment that moves little between calls (the per-tick
+    stopping path): ``hints[p]`` remembers the face that separated piece p last time, which
+    usually still does — one test per piece away from the robot."""
+    best, which, face = NO_ENTRY, -1, -1
+    for p in range(pieces.shape[0]):
+        r0, r1 = pieces[p, 0], pieces[p, 1]
+        if _outside(rows, cols, hints[p], a, b, margin):
+            continue
+        r = separating_face(rows, cols, r0, r1, a, b, margin)
+        if r >= 0:
+            hints[p] = r
+            continue
+        s, r = clip(rows, cols, r0, r1, a, b, margin)
+        if s < best:
+            best, which, face = s, p, r
+    return best, which, face
+
+
+@njit(cache=True, error_model="numpy")
 def _push_out(i, j, wi, wj, depth, q, qd, q_des, qd_des, tau, mode, par):  # pragma: no cover - compiled
     """Clamp along the outward unit normal (wi at joint i, wj at joint j; i == j with wj = 0
     for a box face or a limit): drop the command's inward component and add a wall force,
@@ -126,8 +174,8 @@ def _push_out(i, j, wi, wj, depth, q, qd, q_des, qd_des, tau, mode, par):  # pra
             qd_des[j] -= v * wj
 
 
-@njit(cache=True)
-def guard_tick(q, qd, mode, q_des, qd_des, tau, rows, cols, pieces, lim, par, work, report):  # pragma: no cover
+@njit(cache=True, error_model="numpy")
+def guard_tick(q, qd, mode, q_des, qd_des, tau, rows, cols, pieces, lim, par, work, report, hints):  # pragma: no cover
     """The run-time guard for one tick; returns PASS, MODIFIED or STOP and fills ``report``.
 
     Predicted motion: the command acts for one period dt, then every joint brakes at a common
@@ -141,7 +189,9 @@ def guard_tick(q, qd, mode, q_des, qd_des, tau, rows, cols, pieces, lim, par, wo
     (zone ⊕ g, or within g/2 of a limit) is clamped — the command is pushed out along every
     face that separates q from the zone (:func:`_push_out`) — and one that reaches the inner
     half (zone ⊕ g/2, or past a limit) is a STOP, early enough for the fallback to brake.
-    ``par``: DT, MARGIN (g), DAMPING and STIFFNESS of the clamp's wall, CLAMP.
+    ``par``: DT, MARGIN (g), DAMPING and STIFFNESS of the clamp's wall, CLAMP. ``hints``: see
+    :func:`segment_entry_hinted`. ``report``: KIND, and for a violation WHICH zone (or joint),
+    FACE and PIECE (unsigned: only meaningful with the KIND that sets them).
     """
     n = q.shape[0]
     dt, margin, clamp = par[DT], par[MARGIN], par[CLAMP] != 0.0
@@ -154,8 +204,8 @@ def guard_tick(q, qd, mode, q_des, qd_des, tau, rows, cols, pieces, lim, par, wo
     p = work[STOP_POINT]
     for j in range(n):
         p[j] = q[j] + qd[j] * (dt + 0.5 * t_stop)
-    s, piece, face = segment_entry(rows, cols, pieces, q, p, margin)
-    report[KIND], report[WHICH], report[FACE], report[PIECE] = NONE, -1, -1, -1
+    s, piece, face = segment_entry_hinted(rows, cols, pieces, q, p, margin, hints)
+    report[KIND] = NONE
     if s < NO_ENTRY:
         report[KIND], report[WHICH], report[FACE], report[PIECE] = ZONE, pieces[piece, 2], face, piece
     stop = False
@@ -168,7 +218,7 @@ def guard_tick(q, qd, mode, q_des, qd_des, tau, rows, cols, pieces, lim, par, wo
             if sj < s:
                 s = sj
                 report[KIND] = UPPER_LIMIT if p[j] > hi else LOWER_LIMIT
-                report[WHICH], report[FACE] = j, -1
+                report[WHICH] = j
     if mode == IMPEDANCE and report[KIND] == NONE:
         s_des, piece, face = segment_entry(rows, cols, pieces, q, q_des, margin)
         if s_des < NO_ENTRY:
@@ -192,33 +242,32 @@ def guard_tick(q, qd, mode, q_des, qd_des, tau, rows, cols, pieces, lim, par, wo
     return MODIFIED
 
 
-# ---- packed arguments: fewer arrays for numba's dispatcher to inspect on every call ----------
-_HEADER = 3  # it[0] = rows R, it[1] = pieces P, it[2] = joints n
 
-
+# ---- the per-tick call, packed: numba's dispatcher costs about as much per argument as the
+# ---- check itself, so the guard's tables travel as two arrays (sliced, never reshaped, inside)
 def pack(rows, cols, pieces, lim, par, work, report):
-    """(fl, it): the guard's float and integer tables in two flat arrays, and views of each
-    table into them (rows, cols, pieces, lim, par, work, report) for the caller to keep."""
+    """(F, I, views): F float (R + N_LIMIT_ROWS + 1 + N_WORK_ROWS, W) holds rows, lim, par and
+    work; I uint32 (1 + R + P + 1, 4) holds a header (R, P), cols, pieces (4th column: the
+    separating-face hints) and the report. ``views`` = (rows, cols, pieces, lim, par, work,
+    report, hints) into them, for the caller to read and write."""
     R, P, n = rows.shape[0], pieces.shape[0], lim.shape[1]
-    fl = np.concatenate([np.ravel(rows), np.ravel(lim), par, np.ravel(work)]).astype(np.float64)
-    it = np.concatenate([[R, P, n], np.ravel(cols), np.ravel(pieces), report]).astype(np.int64)
-    f = np.cumsum([0, 3 * R, N_LIMIT_ROWS * n, N_PARAMS, N_WORK_ROWS * n])
-    i = np.cumsum([_HEADER, 2 * R, 3 * P, N_REPORT])
-    views = (fl[f[0]:f[1]].reshape(R, 3), it[i[0]:i[1]].reshape(R, 2), it[i[1]:i[2]].reshape(P, 3),
-             fl[f[1]:f[2]].reshape(N_LIMIT_ROWS, n), fl[f[2]:f[3]], fl[f[3]:f[4]].reshape(N_WORK_ROWS, n),
-             it[i[2]:i[3]])
-    return fl, it, views
+    F = np.zeros((R + N_LIMIT_ROWS + 1 + N_WORK_ROWS, max(3, n, N_PARAMS)))
+    I = np.zeros((1 + R + P + 1, 4), dtype=np.uint32)
+    I[0, :2] = R, P
+    F[:R, :3], F[R:R + N_LIMIT_ROWS, :n], F[R + N_LIMIT_ROWS, :N_PARAMS] = rows, lim, par
+    F[R + N_LIMIT_ROWS + 1:, :n] = work
+    I[1:1 + R, :2], I[1 + R:1 + R + P, :3], I[1 + R + P, :N_REPORT] = cols, pieces, report[:N_REPORT]
+    I[1 + R:1 + R + P, 3] = pieces[:, 0]
+    views = (F[:R, :3], I[1:1 + R, :2], I[1 + R:1 + R + P, :3], F[R:R + N_LIMIT_ROWS, :n],
+             F[R + N_LIMIT_ROWS, :N_PARAMS], F[R + N_LIMIT_ROWS + 1:, :n], I[1 + R + P, :N_REPORT],
+             I[1 + R:1 + R + P, 3])
+    return F, I, views
 
 
-@njit(cache=True)
-def guard_tick_packed(q, qd, mode, q_des, qd_des, tau, fl, it):  # pragma: no cover - compiled
+@njit(cache=True, error_model="numpy")
+def guard_tick_packed(q, qd, mode, q_des, qd_des, tau, F, I):  # pragma: no cover - compiled
     """:func:`guard_tick` on the tables of :func:`pack`."""
-    R, P, n = it[0], it[1], it[2]
-    f1 = 3 * R
-    f2 = f1 + N_LIMIT_ROWS * n
-    f3 = f2 + N_PARAMS
-    i1 = _HEADER + 2 * R
-    i2 = i1 + 3 * P
-    return guard_tick(q, qd, mode, q_des, qd_des, tau, fl[:f1].reshape((R, 3)), it[_HEADER:i1].reshape((R, 2)),
-                      it[i1:i2].reshape((P, 3)), fl[f1:f2].reshape((N_LIMIT_ROWS, n)), fl[f2:f3],
-                      fl[f3:f3 + N_WORK_ROWS * n].reshape((N_WORK_ROWS, n)), it[i2:i2 + N_REPORT])
+    R, P, n = I[0, 0], I[0, 1], q.shape[0]
+    L = R + N_LIMIT_ROWS
+    return guard_tick(q, qd, mode, q_des, qd_des, tau, F[:R, :3], I[1:1 + R, :2], I[1 + R:1 + R + P, :3],
+                      F[R:L, :n], F[L, :N_PARAMS], F[L + 1:, :n], I[1 + R + P, :N_REPORT], I[1 + R:1 + R + P, 3])

@@ -53,9 +53,9 @@ class RuntimeGuard:
         par = np.zeros(k.N_PARAMS)
         par[k.DT], par[k.MARGIN], par[k.DAMPING], par[k.STIFFNESS] = dt, margin, damping, stiffness
         par[k.CLAMP] = 1.0 if action == "clamp" else 0.0
-        self.fl, self.it, views = k.pack(*scene.tables(), lim, par, np.zeros((k.N_WORK_ROWS, n)),
-                                         np.zeros(k.N_REPORT, dtype=np.int64))
-        self.rows, self.cols, self.pieces, self.lim, self.par, self.work, self.report = views
+        self.F, self.I, views = k.pack(*scene.tables(), lim, par, np.zeros((k.N_WORK_ROWS, n)),
+                                       np.zeros(k.N_REPORT, dtype=np.uint32))
+        self.rows, self.cols, self.pieces, self.lim, self.par, self.work, self.report, self.hints = views
         self.reason = ""
         self.event_due = False  # True on the tick an episode starts (the stage emits the event)
         self._event: dict = {}
@@ -71,7 +71,7 @@ class RuntimeGuard:
 
     def check(self, t: float, state, command) -> int:
         verdict = k.guard_tick_packed(state.position, state.velocity, int(command.mode), command.q_des,
-                                      command.qd_des, command.tau_ff, self.fl, self.it)
+                                      command.qd_des, command.tau_ff, self.F, self.I)
         if verdict == k.PASS:
             self._quiet += 1
             self.event_due = False
@@ -94,7 +94,7 @@ class RuntimeGuard:
         state, command = JointState(n), JointCommand(n)
         state.position[:] = np.clip(0.0, self.scene.q_min, self.scene.q_max)
         k.guard_tick_packed(state.position, state.velocity, int(command.mode), command.q_des, command.qd_des,
-                            command.tau_ff, self.fl.copy(), self.it.copy())
+                            command.tau_ff, self.F.copy(), self.I.copy())
 
     def _describe(self, state, verdict) -> None:
         kind, which = int(self.report[k.KIND]), int(self.report[k.WHICH])

@@ -155,8 +155,8 @@ class Scene:
                 parts.append(part)
         for name, value in (("q_min", lo), ("q_max", hi), ("zones", zones), ("joint_names", names),
                             ("rows", np.array(rows, float).reshape(-1, 3)),
-                            ("cols", np.array(cols, np.int64).reshape(-1, 2)),
-                            ("pieces", np.array(pieces, np.int64).reshape(-1, 3)), ("parts", tuple(parts)),
+                            ("cols", np.array(cols, np.uint32).reshape(-1, 2)),  # unsigned: no negative-index fix-up per access
+                            ("pieces", np.array(pieces, np.uint32).reshape(-1, 3)), ("parts", tuple(parts)),
                             ("margin", float(self.margin))):
             if isinstance(value, np.ndarray):
                 value.setflags(write=False)
