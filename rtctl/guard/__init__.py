@@ -10,12 +10,19 @@
 * :mod:`.runtime` — :class:`RuntimeGuard`, the safety stage's per-tick check (compiled);
 * :mod:`.config` — ``[guard]`` and ``[[guard.zones]]`` from the robot and run configuration.
 """
-from rtctl.guard.feasibility import Violation, path_violation, point_violation, segment_violation, trajectory_violation
-from rtctl.guard.motion import Route, plan_route, retarget_around, route_trajectory
-from rtctl.guard.planner import Plan, plan_path
-from rtctl.guard.runtime import RuntimeGuard
-from rtctl.guard.zones import Box, Polygon, Scene, Zone
+from importlib import import_module
 
-__all__ = ["Box", "Polygon", "Zone", "Scene", "Violation", "point_violation", "segment_violation",
-           "path_violation", "trajectory_violation", "Plan", "plan_path", "Route", "plan_route",
-           "route_trajectory", "retarget_around", "RuntimeGuard"]
+# imported on first use (PEP 562): a configuration with zones must not pay for the planners,
+# shapely and the compiled kernels just to be loaded (every `rtctl status` loads one)
+_HOME = {"Box": "zones", "Polygon": "zones", "Zone": "zones", "Scene": "zones", "Violation": "feasibility",
+         "point_violation": "feasibility", "segment_violation": "feasibility", "path_violation": "feasibility",
+         "trajectory_violation": "feasibility", "Plan": "planner", "plan_path": "planner", "Route": "motion",
+         "plan_route": "motion", "route_trajectory": "motion", "retarget_around": "motion",
+         "RuntimeGuard": "runtime"}
+__all__ = list(_HOME)
+
+
+def __getattr__(name):
+    if name not in _HOME:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(import_module(f"rtctl.guard.{_HOME[name]}"), name)

@@ -32,8 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from rtctl.errors import ConfigError
-from rtctl.guard.planner import DEFAULT_RESOLUTION
-from rtctl.guard.zones import Box, Polygon, Scene, Zone
+from rtctl.guard.zones import DEFAULT_RESOLUTION, Box, Polygon, Scene, Zone
 from rtctl.tomltable import Table, load_toml
 
 DEFAULT_MARGIN = 0.05  # rad
@@ -200,9 +199,10 @@ def check_waypoints(t: Table, guard: GuardConfig | None, waypoints) -> None:
     """ConfigError naming the first trajectory waypoint inside a zone or its margin."""
     if guard is None:
         return
-    from rtctl.guard.feasibility import point_violation
-
+    scene = guard.scene
     for k, w in enumerate(waypoints):
-        v = point_violation(guard.scene, w)
-        if v is not None:
-            raise ConfigError(t.file, f"{t.key('waypoints')}[{k}]", f"a feasible configuration, but it is {v}")
+        depth, piece = scene.depth(w)
+        if depth < scene.margin:
+            where = "inside" if depth < 0 else "within the margin of"
+            raise ConfigError(t.file, f"{t.key('waypoints')}[{k}]",
+                              f"a feasible configuration, but it is {where} zone {scene.zone_of_piece(piece).name!r}")

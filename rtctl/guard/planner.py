@@ -25,9 +25,8 @@ from rtctl.guard import kernels as k
 from rtctl.guard.feasibility import Violation, path_violation, point_violation, segment_violation
 from rtctl.guard.grid import BUDGET, Grid, astar, shortcut
 from rtctl.guard.visibility import VisibilityMap, plan_inflation
-from rtctl.guard.zones import Box, Scene
+from rtctl.guard.zones import DEFAULT_RESOLUTION, Box, Scene
 
-DEFAULT_RESOLUTION = 0.05  # rad (or m): the n-D grid's step
 _MAPS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()  # scene → {(pieces, margin, bounds): map}
 
 

@@ -23,8 +23,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import shapely
 
+DEFAULT_RESOLUTION = 0.05  # rad (or m): the n-D planner's grid step
 _MITRE_LIMIT = 1e6  # shapely's mitre limit: large enough that every corner keeps its exact mitre
 
 
@@ -72,13 +72,16 @@ class Polygon:
         scale = np.abs(v).max() + np.ptp(v, axis=0).max()
         if np.any(np.hypot(*edges.T) <= 1e-12 * scale):
             raise ValueError("a polygon has a repeated vertex (degenerate edge)")
-        cross = edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
-        shape = shapely.Polygon(v)
-        if shape.area <= 1e-12 * scale * scale:
+        nxt = np.roll(edges, -1, axis=0)
+        cross = edges[:, 0] * nxt[:, 1] - edges[:, 1] * nxt[:, 0]
+        area = 0.5 * np.sum(v[:, 0] * np.roll(v[:, 1], -1) - np.roll(v[:, 0], -1) * v[:, 1])  # shoelace, signed
+        if abs(area) <= 1e-12 * scale * scale:
             raise ValueError("a polygon has no area (degenerate)")
-        if not shape.is_valid or not (np.all(cross >= 0) or np.all(cross <= 0)):
+        # convex and simple: every turn the same way, and the turns add up to one full turn
+        turning = np.sum(np.arctan2(cross, np.sum(edges * nxt, axis=1)))
+        if not (np.all(cross >= 0) or np.all(cross <= 0)) or abs(abs(turning) - 2 * np.pi) > 1e-6:
             raise ValueError("a 'convex' polygon is not convex (or its edges cross): split it into convex parts")
-        if not shape.exterior.is_ccw:
+        if area < 0:
             v = v[::-1]
         v.setflags(write=False)
         object.__setattr__(self, "vertices", v)
@@ -190,15 +193,27 @@ class Scene:
             pieces.append(p)
         return [(tuple(sorted(j)), tuple(p)) for j, p in groups.values()]
 
+    def depth(self, q) -> tuple[float, int]:
+        """(smallest piece depth at q, that piece) in numpy — for a few points (configuration
+        checks); the compiled :func:`rtctl.guard.kernels.clearance` is the same for many."""
+        if len(self.pieces) == 0:
+            return np.inf, -1
+        per_row = self.rows[:, 0] * q[self.cols[:, 0]] + self.rows[:, 1] * q[self.cols[:, 1]] - self.rows[:, 2]
+        per_piece = np.maximum.reduceat(per_row, self.pieces[:, 0].astype(np.intp))
+        p = int(np.argmin(per_piece))
+        return float(per_piece[p]), p
+
     def tables(self, pieces=None):
         """(rows, cols, pieces) of all pieces, or of the given piece indices only."""
         if pieces is None:
             return self.rows, self.cols, self.pieces
         return self.rows, self.cols, np.ascontiguousarray(self.pieces[list(pieces)]).reshape(-1, 3)
 
-    def inflated_shape(self, piece: int, plane: tuple[int, int], margin: float, bounds) -> shapely.Polygon:
+    def inflated_shape(self, piece: int, plane: tuple[int, int], margin: float, bounds):
         """The margin-inflated piece in the (q_plane[0], q_plane[1]) plane, as a shapely polygon
         (mitred offset; a one-joint piece is a band across ``bounds`` = (lo0, lo1, hi0, hi1))."""
+        import shapely  # planning and plotting only
+
         part = self.parts[piece]
         margin = margin if margin > 1e-12 else 0.0  # GEOS empties a polygon buffered by a subnormal distance
         if isinstance(part, Polygon):

@@ -15,6 +15,7 @@ SQUARE = [[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]
 @pytest.mark.parametrize("vertices, why", [
     ([[0, 0], [2, 0], [1, 0.5], [1, 2]], "not convex"),  # a dart
     ([[0, 0], [2, 1], [0, 2], [2, 0.3], [1, 3]], "not convex"),  # edges cross
+    ([[np.cos(a), np.sin(a)] for a in np.radians(np.arange(5) * 144.0)], "not convex"),  # a pentagram: turns one way twice
     ([[0, 0], [1, 1], [2, 2]], "no area"),  # collinear
     ([[0, 0], [1, 0], [1, 0], [0, 1]], "repeated vertex"),
     ([[0, 0], [1, 0]], "at least 3"),
