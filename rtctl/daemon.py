@@ -165,8 +165,7 @@ class Daemon:
         spare.check(0.0, 1, self.rt.state, statuses, scratch, False, "warm-up")  # → hold
         spare.estop("warm-up")
         spare.check(0.0, 2, self.rt.state, statuses, scratch, True)  # → damped stop
-        if self.guard is not None:
-            self.guard.warm_up()
+        guarded.warm_up(self.cfg, self.guard)
         for dev in self.rt.all_devices:
             warm_up = getattr(dev, "warm_up", None)
             if warm_up is not None:

@@ -108,6 +108,18 @@ def plan_path(scene: Scene, q0, q1, *, resolution: float = DEFAULT_RESOLUTION, m
     return Plan(True, path, "+".join(sorted(set(methods))), crossing=crossing, margin=margin, expanded=expanded)
 
 
+def prepare(scene: Scene) -> None:
+    """Load the compiled checks and build the visibility graphs a plan will need (two-joint
+    groups within finite limits), so that a first `move` does not stall the loop for them."""
+    q = np.clip(np.zeros(scene.n), scene.q_min, scene.q_max)
+    k.segment_entry(*scene.tables(), q, q, scene.margin)
+    k.clearances(*scene.tables(), q[None], np.empty(1))
+    for joints, pieces in scene.joint_groups():
+        J = np.array(joints)
+        if len(J) == 2 and np.all(np.isfinite(scene.q_min[J])) and np.all(np.isfinite(scene.q_max[J])):
+            _visibility_map(scene, pieces, joints, scene.margin, (*scene.q_min[J], *scene.q_max[J]))
+
+
 def _visibility_map(scene, pieces, plane, margin, bounds) -> VisibilityMap:
     """The group's visibility graph, built once per scene, margin and bounds."""
     maps = _MAPS.setdefault(scene, {})

@@ -7,6 +7,7 @@ import structlog
 from rtctl.errors import GuardError
 from rtctl.guard.feasibility import point_violation
 from rtctl.guard.motion import plan_route, retarget_around, route_trajectory
+from rtctl.guard.planner import prepare
 from rtctl.guard.runtime import RuntimeGuard
 
 log = structlog.get_logger("rtctl.guard")
@@ -21,6 +22,14 @@ def runtime_guard(cfg, limits) -> RuntimeGuard | None:
     decel = g.deceleration if g.deceleration is not None else limits.a_max
     return RuntimeGuard(g.scene, decel, cfg.loop.period, margin=g.guard_margin, action=g.action,
                         damping=cfg.safety.damping, stiffness=cfg.safety.hold_stiffness)
+
+
+def warm_up(cfg, guard) -> None:
+    """Before "started": the per-tick check compiled or loaded, the planners' kernels loaded and
+    the visibility graphs built (a `move` is planned inside the loop)."""
+    if guard is not None:
+        guard.warm_up()
+        prepare(cfg.guard.scene)
 
 
 def check_start(cfg, q) -> None:
