@@ -54,9 +54,12 @@ def check_lines(cfg, limits) -> list[str]:
         corners = "; ".join(_fmt(p, False) for p in leg.path[1:-1])
         lines.append(f"  {name}: the straight path {leg.crossing}; bypass ({leg.method}, "
                      f"{leg.length:.4g} rad instead of {np.linalg.norm(leg.path[-1] - leg.path[0]):.4g}) via {corners}")
+    durations = cfg.trajectory.durations
+    if durations is not None and start is None:
+        durations = durations[1:]  # (the first is the move from the start, not known here)
     if len(route.points) > 1:
         trajectory, smooth = route_trajectory(scene, route, limits, smooth=cfg.trajectory.smooth,
-                                              dwell=cfg.trajectory.dwell)
+                                              dwell=cfg.trajectory.dwell, durations=durations)
         lines.append(f"  trajectory: {trajectory.duration:.3f} s, {'smooth' if smooth else 'stopping at every point'}")
     return lines
 

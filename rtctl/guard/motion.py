@@ -58,8 +58,13 @@ def plan_route(scene: Scene, start, waypoints, *, resolution: float = DEFAULT_RE
 
 
 def route_trajectory(scene: Scene, route: Route, limits: JointLimits, *, smooth: bool = False, dwell=0.0,
-                     t0: float = 0.0):
-    """(trajectory through the route from its start, whether it is smooth); ``dwell`` per asked waypoint."""
+                     durations=None, t0: float = 0.0):
+    """(trajectory through the route from its start, whether it is smooth); ``dwell`` per asked
+    waypoint; ``durations`` (s per asked segment, as ``through_waypoints`` takes them) only for a
+    route without bypasses — a bypass adds segments nobody asked a time for (GuardError)."""
+    if durations is not None and route.bypassed:
+        raise GuardError("the trajectory's durations cannot be kept: a leg goes around a zone (give its corners "
+                         "as waypoints with their own durations, or drop durations)")
     asked = int(route.waypoint[1:].sum())
     dwell_at = np.zeros(len(route.points) - 1)
     dwell_at[route.waypoint[1:]] = np.broadcast_to(np.asarray(dwell, float), (asked,))
@@ -67,10 +72,12 @@ def route_trajectory(scene: Scene, route: Route, limits: JointLimits, *, smooth:
         return through_waypoints(route.points, limits, start=route.points[0], t0=t0), smooth
     args = (route.points[1:], limits)
     if smooth:
-        trajectory = through_waypoints(*args, start=route.points[0], smooth=True, dwell=dwell_at, t0=t0)
+        trajectory = through_waypoints(*args, start=route.points[0], smooth=True, dwell=dwell_at, durations=durations,
+                                       t0=t0)
         if trajectory_violation(scene, trajectory, 0.5 * _clearance(route, scene), limits.v_max) is None:
             return trajectory, True
-    return through_waypoints(*args, start=route.points[0], smooth=False, dwell=dwell_at, t0=t0), False
+    return through_waypoints(*args, start=route.points[0], smooth=False, dwell=dwell_at, durations=durations,
+                             t0=t0), False
 
 
 def _clearance(route: Route, scene: Scene) -> float:

@@ -50,7 +50,8 @@ def initial_trajectory(cfg, q0, limits):
     leg has no path)."""
     tcfg, g = cfg.trajectory, cfg.guard
     route = plan_route(g.scene, q0, tcfg.waypoints, resolution=g.resolution)
-    trajectory, smooth = route_trajectory(g.scene, route, limits, smooth=tcfg.smooth, dwell=tcfg.dwell)
+    trajectory, smooth = route_trajectory(g.scene, route, limits, smooth=tcfg.smooth, dwell=tcfg.dwell,
+                                          durations=tcfg.durations)
     bypassed = [i for i, leg in enumerate(route.legs) if leg.crossing is not None]
     if bypassed or smooth != tcfg.smooth:
         log.info("guarded trajectory", bypassed_legs=bypassed, points=len(route.points), smooth=smooth,
