@@ -61,3 +61,17 @@ def test_a_route_names_the_leg_without_a_path():
     assert not route.bypassed and len(route.points) == 3
     with pytest.raises(GuardError, match="waypoint 1: cannot go there from waypoint 0: no path"):
         plan_route(band, [0.0, -1.0, 0, 0], [[1.0, -1.0, 0, 0], [1.0, 1.0, 0, 0]])
+
+
+def test_durations_are_kept_on_a_clear_route_and_refused_around_a_zone():
+    from rtctl.guard import route_trajectory
+    from rtctl.trajectory import JointLimits
+
+    scene = Scene([square("a", (0, 1))], *LIMITS, margin=0.1)
+    limits = JointLimits([1.0] * 4, [2.0] * 4)
+    clear = plan_route(scene, [-1.0, 1.0, 0, 0], [[1.0, 1.0, 0, 0]])
+    trajectory, _ = route_trajectory(scene, clear, limits, durations=[5.0])
+    assert trajectory.duration == pytest.approx(5.0)
+    around = plan_route(scene, [-1.0, 0.0, 0, 0], [[1.0, 0.0, 0, 0]])
+    with pytest.raises(GuardError, match="durations cannot be kept"):
+        route_trajectory(scene, around, limits, durations=[5.0])
