@@ -78,10 +78,26 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--log-format", default="auto", choices=("auto", "console", "json"),
                      help="auto (default): console on a terminal, json otherwise")
 
-    check = sub.add_parser("check", help="validate a run configuration; print the bus-load budget and the environment "
-                                            "variables a run reads")
+    check = sub.add_parser("check", help="validate a run configuration; print the bus-load budget, the environment "
+                                         "variables a run reads and the guard's report (crossings of interference "
+                                         "zones and the bypasses)")
     check.add_argument("config")
     check.add_argument("--sim", action="store_true", help="check as `run --sim` would")
+
+    plan = sub.add_parser("plan", help="plan a path around the interference zones (and draw it)",
+                          description="Plan a joint-space path from the start (the simulator's initial_q, or "
+                                      "--from) to --to — or along CONFIG's trajectory — around the zones of CONFIG "
+                                      "(robot file and [[guard.zones]]): the shortest path in a two-joint plane, a "
+                                      "resolution-complete grid search otherwise. Prints the path; exit 2 when there "
+                                      "is none, with the reason.")
+    plan.add_argument("config", help="run configuration (TOML)")
+    plan.add_argument("--to", type=float, nargs="+", metavar="Q",
+                      help="target joint positions (default: the configuration's trajectory waypoints)")
+    plan.add_argument("--from", dest="start", type=float, nargs="+", metavar="Q",
+                      help="start joint positions (default: the simulator's initial_q)")
+    plan.add_argument("--deg", action="store_true", help="positions in degrees (revolute joints)")
+    plan.add_argument("--sim", action="store_true", help="read CONFIG as `run --sim` would")
+    plan.add_argument("--plot", metavar="PNG", help="draw the zones and the path in each joint plane that has a zone")
 
     margins = sub.add_parser(
         "margins", help="stability margins of the adaptive controllers against the wire's delay",
@@ -139,13 +155,15 @@ def _parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
-                                        "control-socket", "safety", "trajectory", "leg", "soak"),
+                                        "control-socket", "safety", "trajectory", "leg", "soak", "guard"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
                             "PUMA 560; loop-timing: an empty loop (like cyclictest); can: codec and transports; "
                             "control: the Slotine–Li laws and arma_gmv; telemetry, control-socket, safety, trajectory: their per-tick costs; "
                             "leg: the leg automaton's gates + circuit per tick and the leg board codec; "
                             "soak: the full stack over HIL (socketcand, MIT and CiA 402) for --minutes: RSS, GC, "
-                            "overruns and lateness per minute, telemetry rows, drives left enabled")
+                            "overruns and lateness per minute, telemetry rows, drives left enabled; "
+                            "guard: the per-tick interference guard (16 zones on 6 joints) and bypass planning "
+                            "(against OMPL's RRT-Connect when the `bench` extra is installed)")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
     bench.add_argument("--config", default=None, help="run configuration for `bench loop` (default: the shipped one)")
@@ -203,6 +221,10 @@ def _dispatch(args) -> int:
         from rtctl.commands import check
 
         return check(args)
+    if args.command == "plan":
+        from rtctl.guard.commands import plan
+
+        return plan(args)
     if args.command == "margins":
         from rtctl.commands import margins
 

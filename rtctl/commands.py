@@ -86,6 +86,11 @@ def check(args) -> int:
         print(line)
     for line in _env_lines(env_uses):
         print(line)
+    from rtctl.daemon import _trajectory_limits
+    from rtctl.guard.commands import check_lines
+
+    for line in check_lines(cfg, _trajectory_limits(cfg)):
+        print(line)
     return EXIT_OK
 
 
@@ -138,7 +143,7 @@ def bench(args) -> int:
         from rtctl.bench.control_socket import bench_control_socket as run, format_table
 
         result = run()
-    elif args.what in ("safety", "trajectory", "leg"):
+    elif args.what in ("safety", "trajectory", "leg", "guard"):
         from importlib import import_module
 
         module = import_module(f"rtctl.bench.{args.what}")

@@ -17,6 +17,7 @@ Layout of a run configuration (paths are relative to the file)::
                   devices (names of non-joint devices it uses), gains …
     [trajectory]  unit, waypoints, smooth, dwell, velocity/acceleration limits, durations
     [safety]      fallback, damping, stale_ticks, position_margin, estop_off_delay
+    [guard]       interference zones and the guard's settings (rtctl.guard.config)
     [telemetry]   path, batch_rows, on_failure ("stop": a writer failure is a safe stop; "continue")
     [control]     socket
 """
@@ -29,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from rtctl.errors import ConfigError, RtctlError
+from rtctl.guard.config import GuardConfig, check_waypoints, load_guard
 from rtctl.model import Model, load_robot
 from rtctl.timing.rt import MAX_TIMER_SLACK_NS, RtSettings
 from rtctl.tomltable import Table, load_toml
@@ -109,6 +111,7 @@ class Config:
     telemetry_batch: int
     socket_path: Path
     telemetry_on_failure: str = "stop"  # writer failed: "stop" (safe stop, exit 3) or "continue" without telemetry
+    guard: GuardConfig | None = None  # interference zones (robot file and [guard]), if any
 
 
 def default_socket_path() -> Path:
@@ -143,7 +146,11 @@ def load_config(path, *, sim: bool = False) -> Config:
     devices = _devices(t, model, sim_t is not None)
     controllers = _controllers(t, model)
     _check_owners(t, controllers)
-    trajectory = _trajectory(t.table("trajectory", None), model)
+    trajectory_t = t.table("trajectory", None)
+    trajectory = _trajectory(trajectory_t, model)
+    guard = load_guard(t.table("guard", None), robot_file, model)
+    if trajectory is not None:
+        check_waypoints(trajectory_t, guard, trajectory.waypoints)
     safety = _safety(t.table("safety", None))
     tele = t.table("telemetry", None)
     telemetry_path, batch, on_failure = None, 500, "stop"
@@ -162,7 +169,7 @@ def load_config(path, *, sim: bool = False) -> Config:
         raise t.error("loop.realtime_factor", "1.0 unless the devices are simulated ([sim] or --sim)")
     t.done()
     return Config(path, robot_file, model, loop, devices, controllers, trajectory, safety, sim_t,
-                  telemetry_path, batch, socket_path, on_failure)
+                  telemetry_path, batch, socket_path, on_failure, guard)
 
 
 def _loop(t: Table | None) -> LoopConfig:

@@ -31,6 +31,7 @@ from rtctl.cli import exit_code_for
 from rtctl.config import load_config, realtime_factor
 from rtctl.control_socket import ControlServer
 from rtctl.errors import ConfigError, HardwareError, RtctlError, TelemetryError, TrajectoryError
+from rtctl.guard import run as guarded
 from rtctl.hal import JointCommand, Status
 from rtctl.model.dynamics import gravity as gravity_of
 from rtctl.runtime import build
@@ -89,9 +90,10 @@ class Daemon:
         self.summary_line = True  # log the summary as one event (the JSON log's last line)
         self.limits = _trajectory_limits(cfg)
         self._check_trajectory()
+        self.guard = guarded.runtime_guard(cfg, self.limits)
         self.safety = SafetyStage.from_model(
             self.model, cfg.safety, device_joints=runtime.device_joints,
-            gravity=lambda q: gravity_of(self.model, q))
+            gravity=lambda q: gravity_of(self.model, q), guard=self.guard)
         # a signal's stop request cuts the sleep to the next deadline short: SIGTERM is answered
         # at once, however long the period
         clock = MonotonicClock(round(cfg.loop.spin_us * 1e3), interrupted=lambda: self.stop_reason is not None)
@@ -178,6 +180,7 @@ class Daemon:
             idx = self.rt.device_joints[i]
             np.put(state.position, idx, dev.state.position)
             np.put(state.velocity, idx, dev.state.velocity)
+        guarded.check_start(self.cfg, state.position)
         try:
             self.tick.trajectory = self._initial_trajectory(state.position.copy())
         except TrajectoryError as e:  # the devices report a start the limits do not allow
@@ -212,6 +215,7 @@ class Daemon:
         spare.check(0.0, 1, self.rt.state, statuses, scratch, False, "warm-up")  # → hold
         spare.estop("warm-up")
         spare.check(0.0, 2, self.rt.state, statuses, scratch, True)  # → damped stop
+        guarded.warm_up(self.cfg, self.guard)
         for dev in self.rt.all_devices:
             warm_up = getattr(dev, "warm_up", None)
             if warm_up is not None:
@@ -231,6 +235,8 @@ class Daemon:
         tcfg = self.cfg.trajectory
         if tcfg is None:
             return hold(q0)
+        if self.cfg.guard is not None:
+            return guarded.initial_trajectory(self.cfg, q0, self.limits)
         return through_waypoints(tcfg.waypoints, self.limits, start=q0, smooth=tcfg.smooth, dwell=tcfg.dwell,
                                  durations=tcfg.durations)
 
@@ -333,16 +339,21 @@ class Daemon:
         ref, t = self.rt.ref, self.ticker.sim_time_s
         times = req.get("times")
         duration = times[0] if times is not None else req.get("duration")
+        extra = {}
         try:  # each waypoint is reached at its time, or the move is refused with the reason
-            trajectory = retarget(t, ref.q, ref.qd, ref.qdd, points, self.limits, duration=duration,
-                                  durations=None if times is None else np.diff(times))
+            if self.cfg.guard is not None and times is None:  # around the interference zones
+                trajectory, extra = guarded.move_trajectory(self.cfg, t, ref, points, self.limits, duration)
+            else:
+                trajectory = retarget(t, ref.q, ref.qd, ref.qdd, points, self.limits, duration=duration,
+                                      durations=None if times is None else np.diff(times))
+                guarded.check_timed_move(self.cfg, trajectory, t)
         except TrajectoryError as e:
             raise RtctlError(f"move refused: {e}") from None
         asked = times[-1] if times is not None else duration
-        if asked is not None and abs(trajectory.t_end - t - asked) > 1e-9 * max(1.0, asked):
+        if asked is not None and not extra.get("bypass") and abs(trajectory.t_end - t - asked) > 1e-9 * max(1.0, asked):
             raise RtctlError(f"move refused: it would end after {trajectory.t_end - t:.6g} s, not the {asked:.6g} s asked")
         self.tick.trajectory = trajectory
-        return {"ok": True, "t_start": t, "t_end": trajectory.t_end}
+        return {"ok": True, "t_start": t, "t_end": trajectory.t_end, **extra}
 
     def _status(self) -> dict:
         s = self.rt.state

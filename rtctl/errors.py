@@ -49,6 +49,10 @@ class TrajectoryError(RtctlError):
     """A trajectory cannot be planned as asked (duration below the limits' minimum, waypoint out of range)."""
 
 
+class GuardError(RtctlError):
+    """A target or path is infeasible: inside an interference zone, past a limit, or no way around."""
+
+
 class SafetyError(RtctlError):
     """The safety stage stopped the robot (limit, watchdog, non-finite output, e-stop)."""
 

@@ -21,6 +21,7 @@ File layout (lengths in metres; angles in ``angle_unit``, "deg" or "rad")::
     motor = { Jm = 200e-6, G = -62.61, B = 1.48e-3, Tc = [0.395, -0.435] }   # optional, motor side
     [tool]                             # optional tool frame in the flange (eq. 6)
     xyz = [0, 0, 0.1]  rpy = [0, 0, 0]
+    [[guard.zones]]                    # optional interference zones (rtctl.guard.config)
 """
 from __future__ import annotations
 
@@ -62,6 +63,7 @@ def from_table(t: Table) -> Model:
     reconstructed = t.str("reconstructed", None)
     t.str("source", "")
     t.str("convention", "dh", choices=("dh",))
+    t.table("guard", None)  # the robot's interference zones: read by rtctl.guard.config
     joints = t.tables("joints")
     if not 1 <= len(joints) <= MAX_JOINTS:
         raise t.error("joints", f"1 to {MAX_JOINTS} [[joints]] tables (the robot size rtctl supports), "
