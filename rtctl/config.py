@@ -11,8 +11,10 @@ Layout of a run configuration (paths are relative to the file)::
     [robot]       description = "robots/puma560.toml"    # D-H TOML or URDF
     [loop]        rate_hz, overrun_limit, spin_us, realtime_factor;  [loop.rt] knobs
     [sim]         present → joint devices are the embedded simulator (see hil_sim.embedded)
-    [[devices]]   name, driver (entry point in rtctl.drivers), joints, driver options …
-    [[controllers]] name, type, joints, divisor, gains …
+    [[devices]]   name, kind ("joints" by default), driver (entry point in rtctl.drivers),
+                  joints (kind "joints" only), driver options …
+    [[controllers]] name, type, joints ([] for an observer that owns no command), divisor,
+                  devices (names of non-joint devices it uses), gains …
     [trajectory]  unit, waypoints, smooth, dwell, velocity/acceleration limits
     [safety]      fallback, damping, stale_ticks, position_margin, estop_off_delay
     [telemetry]   path, batch_rows
@@ -45,12 +47,16 @@ class LoopConfig:
         return 1.0 / self.rate_hz
 
 
+JOINTS = "joints"  # the device kind that serves the robot's joints
+
+
 @dataclass(frozen=True)
 class DeviceConfig:
     name: str
     driver: str
-    joints: tuple[int, ...]  # indices into the robot's joints
+    joints: tuple[int, ...]  # indices into the robot's joints (none for other kinds)
     options: Table  # driver-specific keys, validated by the driver
+    kind: str = JOINTS  # "joints", or another kind (framegrabber, leg board …) reached by name
 
 
 @dataclass(frozen=True)
@@ -60,6 +66,7 @@ class ControllerConfig:
     joints: tuple[int, ...]
     divisor: int
     options: Table  # controller-specific keys, validated by the controller
+    devices: tuple[str, ...] = ()  # non-joint devices it uses, by name
 
 
 @dataclass(frozen=True)
@@ -172,13 +179,13 @@ def _loop(t: Table | None) -> LoopConfig:
     return cfg
 
 
-def joint_indices(t: Table, key: str, model: Model) -> tuple[int, ...]:
+def joint_indices(t: Table, key: str, model: Model, *, allow_empty: bool = False) -> tuple[int, ...]:
     """Joint names under ``key`` (default: all joints) → indices into the model."""
     names = t.raw(key, None)
     if names is None:
         return tuple(range(model.nq))
-    if not isinstance(names, list) or not names or not all(isinstance(x, str) for x in names):
-        raise t.error(key, "a non-empty array of joint names")
+    if not isinstance(names, list) or not (names or allow_empty) or not all(isinstance(x, str) for x in names):
+        raise t.error(key, "an array of joint names" if allow_empty else "a non-empty array of joint names")
     unknown = [x for x in names if x not in model.joint_names]
     if unknown:
         raise t.error(key, f"joint names of {model.name} ({', '.join(model.joint_names)}); unknown: {unknown[0]!r}")
@@ -188,24 +195,39 @@ def joint_indices(t: Table, key: str, model: Model) -> tuple[int, ...]:
 
 
 def _devices(t: Table, model: Model, simulated: bool) -> tuple[DeviceConfig, ...]:
-    tables = t.tables("devices", [])
-    if not tables:
-        if not simulated:
-            raise t.error("devices", "at least one [[devices]] table, or a [sim] table for the embedded simulator")
-        return (DeviceConfig("sim", "sim", tuple(range(model.nq)), Table({}, t.file, "devices[0]")),)
+    """``[[devices]]``. With ``[sim]``, a joint device's driver becomes the embedded simulator
+    ``sim`` (its options are dropped) and any other kind's driver becomes ``sim_<kind>`` (its
+    options are kept: they describe the device, e.g. a framegrabber's settings)."""
     out, owner = [], {}
-    for d in tables:
+    for d in t.tables("devices", []):
         name = d.str("name")
+        if any(o.name == name for o in out):
+            raise d.error("name", f"a device name used once; {name!r} is taken")
+        kind = d.str("kind", JOINTS)
+        if kind != JOINTS:
+            if d.raw("joints", None) is not None:
+                raise d.error("joints", f"no joints on a device of kind {kind!r} (only kind {JOINTS!r} serves joints)")
+            driver = f"sim_{kind}" if simulated else d.str("driver")
+            if simulated:
+                d.str("driver", "")
+            out.append(DeviceConfig(name, driver, (), d, kind))
+            continue
         driver = "sim" if simulated else d.str("driver")
         if simulated:
             d.str("driver", "")  # the real driver is replaced, its options ignored
-            d.data = {k: v for k, v in d.data.items() if k in ("name", "driver", "joints")}
+            d.data = {k: v for k, v in d.data.items() if k in ("name", "driver", "joints", "kind")}
         joints = joint_indices(d, "joints", model)
         for j in joints:
             if j in owner:
                 raise d.error("joints", f"joints served by one device; {model.joint_names[j]!r} is also on {owner[j]!r}")
             owner[j] = name
         out.append(DeviceConfig(name, driver, joints, d))
+    if not owner:
+        if not simulated:
+            raise t.error("devices", "at least one [[devices]] table serving joints, or a [sim] table for the "
+                          "embedded simulator")
+        out.insert(0, DeviceConfig("sim", "sim", tuple(range(model.nq)), Table({}, t.file, "devices[0]")))
+        return tuple(out)
     missing = [model.joint_names[j] for j in range(model.nq) if j not in owner]
     if missing:
         raise t.error("devices", f"every joint on a device; not served: {', '.join(missing)}")
@@ -216,9 +238,17 @@ def _controllers(t: Table, model: Model) -> tuple[ControllerConfig, ...]:
     out = []
     for c in t.tables("controllers", []):
         out.append(ControllerConfig(
-            name=c.str("name"), type=c.str("type"), joints=joint_indices(c, "joints", model),
-            divisor=c.int("divisor", 1, min=1), options=c))
+            name=c.str("name"), type=c.str("type"), joints=joint_indices(c, "joints", model, allow_empty=True),
+            divisor=c.int("divisor", 1, min=1), devices=_names(c, "devices"), options=c))
     return tuple(out)
+
+
+def _names(t: Table, key: str) -> tuple[str, ...]:
+    names = t.raw(key, [])
+    if not isinstance(names, list) or not all(isinstance(x, str) for x in names) or len(set(names)) != len(names):
+        raise t.error(key, "an array of distinct device names")
+    return tuple(names)
+
 
 
 def _check_owners(t: Table, controllers) -> None:

@@ -92,7 +92,7 @@ class Daemon:
             self.exit_code, self.stop_reason = EXIT_HARDWARE, f"hardware: {e}"
             raise
         finally:
-            for dev in self.rt.devices:
+            for dev in self.rt.all_devices:
                 dev.close()
             if server is not None:
                 server.close()
@@ -114,7 +114,7 @@ class Daemon:
         return rt
 
     def _bring_up(self) -> None:
-        for dev in self.rt.devices:
+        for dev in self.rt.all_devices:
             try:
                 dev.configure()
             except RtctlError:
@@ -122,6 +122,9 @@ class Daemon:
             except Exception as e:
                 raise HardwareError(f"{dev.name}: configure failed: {type(e).__name__}: {e}") from e
         state = self.rt.state
+        for dev in self.rt.io.values():
+            if dev.read(0.0) != Status.OK:
+                raise HardwareError(f"{dev.name}: no valid state after configure ({dev.last_error})")
         for i, dev in enumerate(self.rt.devices):
             if dev.read(0.0) != Status.OK:
                 raise HardwareError(f"{dev.name}: no valid state after configure ({dev.last_error})")
@@ -133,13 +136,13 @@ class Daemon:
         self._warm_up()
         for c in self.rt.controllers:
             c.reset(state)
-        for dev in self.rt.devices:
+        for dev in self.rt.all_devices:
             try:
                 dev.activate()
             except Exception as e:
                 raise HardwareError(f"{dev.name}: activate failed: {type(e).__name__}: {e}") from e
         log.info("started", config=str(self.cfg.file), robot=self.model.name, rate_hz=self.cfg.loop.rate_hz,
-                 realtime_factor=self.cfg.loop.realtime_factor, devices=[d.name for d in self.rt.devices],
+                 realtime_factor=self.cfg.loop.realtime_factor, devices=[d.name for d in self.rt.all_devices],
                  controllers=[c.name for c in self.rt.controllers])
 
     def _warm_up(self) -> None:
@@ -159,7 +162,7 @@ class Daemon:
         spare.check(0.0, 1, self.rt.state, statuses, scratch, False, "warm-up")  # → hold
         spare.estop("warm-up")
         spare.check(0.0, 2, self.rt.state, statuses, scratch, True)  # → damped stop
-        for dev in self.rt.devices:
+        for dev in self.rt.all_devices:
             warm_up = getattr(dev, "warm_up", None)
             if warm_up is not None:
                 warm_up()
@@ -193,7 +196,7 @@ class Daemon:
                 if verdict == Verdict.DEACTIVATE or (stopping_since is not None and t - stopping_since > STOP_GRACE_S):
                     if self.stop_reason is None:
                         self._fault("safety stop: " + "; ".join(f.reason for f in safety.faults[-3:]))
-                    for dev in self.rt.devices:
+                    for dev in self.rt.all_devices:
                         dev.deactivate()
                     break
         finally:
@@ -241,7 +244,7 @@ class Daemon:
         self.tick.trajectory.sample(t, ref.q, ref.qd, ref.qdd)
         for c in self.rt.controllers:
             c.reset(state)
-        for dev in self.rt.devices:
+        for dev in self.rt.all_devices:
             dev.activate()
         return {"ok": True, "faults": []}
 
@@ -295,7 +298,7 @@ class Daemon:
         summary = {"config": str(self.cfg.file), "robot": self.model.name, "exit_code": self.exit_code,
                    "stop_reason": self.stop_reason, "timing": self.ticker.summary(),
                    "tracking_error_rad": self.tick.tracking_summary(), "safety": self.safety.summary(),
-                   "devices": {d.name: d.diagnostics() for d in self.rt.devices}}
+                   "devices": {d.name: d.diagnostics() for d in self.rt.all_devices}}
         if self.recorder is not None:
             summary["telemetry"] = {"path": str(self.recorder.path), "rows": self.recorder.rows,
                                     "dropped_rows": self.recorder.dropped_rows}

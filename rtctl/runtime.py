@@ -13,11 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from rtctl.config import Config
+from rtctl.config import JOINTS, Config
 from rtctl.control import CONTROLLERS, controller_class
 from rtctl.control.base import Reference
 from rtctl.errors import ConfigError
-from rtctl.hal import JointCommand, JointState, load_driver
+from rtctl.hal import JointCommand, JointGroup, JointState, load_driver
 
 
 @dataclass
@@ -35,13 +35,20 @@ class DeviceContext:
 @dataclass
 class Runtime:
     cfg: Config
-    devices: list
-    device_joints: list  # per device: indices of its joints in the robot
+    devices: list  # the joint devices (JointGroup)
+    device_joints: list  # per joint device: indices of its joints in the robot
     controllers: list
     state: JointState  # the whole robot, gathered from the devices every tick
     command: JointCommand  # the whole robot, scattered to the devices every tick
     ref: Reference
     context: DeviceContext
+    io: dict = field(default_factory=dict)  # the other devices (framegrabber, I/O board …) by name
+    io_users: list = field(default_factory=list)  # per io device (in order): the controllers using it
+
+    @property
+    def all_devices(self) -> list:
+        """Every device, joint devices first: the order of bring-up and of the tick's read/write."""
+        return [*self.devices, *self.io.values()]
 
     @property
     def model(self):
@@ -65,23 +72,56 @@ class Runtime:
 def build(cfg: Config) -> Runtime:
     model = cfg.model
     context = DeviceContext(model, cfg.loop.period, cfg.sim, cfg.file.parent)
-    devices, device_joints = [], []
-    for i, d in enumerate(cfg.devices):
-        try:
-            cls = load_driver(d.driver)
-        except Exception as e:
-            raise ConfigError(cfg.file, f"devices[{i}].driver", f"an installed driver ({e})") from None
-        devices.append(cls.from_config(d, context))
+    devices, device_joints, io = [], [], {}
+    for i, d in enumerate(cfg.devices):  # joint devices first: a simulated io device may need their plant
+        if d.kind != JOINTS:
+            continue
+        dev = _driver(cfg, i, d).from_config(d, context)
+        if not isinstance(dev, JointGroup):
+            raise ConfigError(cfg.file, f"devices[{i}].driver", f"a driver of joints (kind {JOINTS!r}); "
+                              f"{d.driver!r} is a {type(dev).__name__}")
+        devices.append(dev)
         device_joints.append(np.asarray(d.joints, dtype=np.int64))
+    for i, d in enumerate(cfg.devices):
+        if d.kind != JOINTS:
+            io[d.name] = _driver(cfg, i, d).from_config(d, context)
     controllers = []
+    io_users = [[] for _ in io]
     for i, c in enumerate(cfg.controllers):
         if c.type not in CONTROLLERS:
             raise ConfigError(cfg.file, f"controllers[{i}].type", f"one of {', '.join(sorted(CONTROLLERS))}, got {c.type!r}")
-        controllers.append(controller_class(c.type).from_config(c, model))
+        controller = controller_class(c.type).from_config(c, model)
+        _bind(cfg, i, controller, c.devices, io, io_users)
+        controllers.append(controller)
     n = model.nq
     if len(devices) == 1 and np.array_equal(device_joints[0], np.arange(n)):
         # one device serves every joint in order: its arrays are the robot's (no gather/scatter)
         state, command = devices[0].state, devices[0].command
     else:
         state, command = JointState(n), JointCommand(n)
-    return Runtime(cfg, devices, device_joints, controllers, state, command, Reference(n), context)
+    return Runtime(cfg, devices, device_joints, controllers, state, command, Reference(n), context, io, io_users)
+
+
+def _driver(cfg: Config, i: int, d):
+    try:
+        return load_driver(d.driver)
+    except Exception as e:
+        if d.driver.startswith("sim_"):
+            raise ConfigError(cfg.file, f"devices[{i}].kind", f"a kind the embedded simulator plays "
+                              f"(no simulated {d.kind!r} device installed)") from None
+        raise ConfigError(cfg.file, f"devices[{i}].driver", f"an installed driver ({e})") from None
+
+
+def _bind(cfg: Config, i: int, controller, names, io: dict, io_users: list) -> None:
+    """Hand controller i the non-joint devices it names; it checks they are what it needs."""
+    unknown = [x for x in names if x not in io]
+    if unknown:
+        raise ConfigError(cfg.file, f"controllers[{i}].devices", f"names of non-joint devices "
+                          f"({', '.join(io) or 'none configured'}); unknown: {unknown[0]!r}")
+    try:
+        controller.bind({x: io[x] for x in names})
+    except (TypeError, ValueError) as e:
+        raise ConfigError(cfg.file, f"controllers[{i}].devices", str(e)) from None
+    order = list(io)
+    for x in names:
+        io_users[order.index(x)].append(controller)

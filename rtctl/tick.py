@@ -2,6 +2,10 @@
 
     read() → reference → controllers update() (each at its rate divisor) → safety → write() → record
 
+Joint devices are read first, then the other devices (framegrabber, I/O board …). A device
+that fails (ERROR on read or on the previous write) takes the controllers that use it out of
+this tick: they are not updated and the safety stage engages the fallback, naming the device.
+
 Each phase is timed by the :class:`~rtctl.timing.Ticker` (``mark``). Nothing here allocates
 on the normal path: devices and controllers write into preallocated arrays, the robot-wide
 state and command are gathered/scattered with ``np.put``/``np.take``; only an exception —
@@ -27,6 +31,10 @@ class Tick:
         n = runtime.model.nq
         self.statuses = np.zeros(len(runtime.devices), dtype=np.int64)
         self.write_statuses = np.zeros(len(runtime.devices), dtype=np.int64)  # carried to the next check
+        self.io = list(runtime.io.values())
+        self.io_statuses = np.zeros(len(self.io), dtype=np.int64)
+        self.io_write_statuses = np.zeros(len(self.io), dtype=np.int64)
+        self._io_errors = [f"device {d.name} failed" for d in self.io]  # built once: no allocation per tick
         self.verdict = Verdict.OK
         self.controller_error: str | None = None
         self._e = np.zeros(n)
@@ -45,12 +53,20 @@ class Tick:
             if not self.direct:
                 self._gather(i, dev)
         state.stamp = t
+        controller_ok = True
+        for i, dev in enumerate(self.io):
+            self.io_statuses[i] = max(dev.read(t), self.io_write_statuses[i])
+            self.io_write_statuses[i] = Status.OK
+            if self.io_statuses[i] != Status.OK:
+                controller_ok = False
+                self.controller_error = self._io_errors[i]
         ticker.mark(READ)
 
         if self.trajectory is not None:
             self.trajectory.sample(t, ref.q, ref.qd, ref.qdd)
-        controller_ok = True
         for c in rt.controllers:
+            if not controller_ok and self._uses_failed_device(c):
+                continue
             if ticker.due(c.divisor):
                 try:
                     c.update(t, state, ref, command)
@@ -67,6 +83,8 @@ class Tick:
             if not self.direct:
                 self._scatter(i, dev)
             self.write_statuses[i] = dev.write(t)  # seen by the safety stage next tick
+        for i, dev in enumerate(self.io):
+            self.io_write_statuses[i] = dev.write(t)
         ticker.mark(WRITE)
 
         if self.verdict == Verdict.OK:  # tracking is the controllers' while they are in charge
@@ -77,6 +95,13 @@ class Tick:
             self.recorder.record()
         ticker.mark(RECORD)
         return self.verdict
+
+    def _uses_failed_device(self, controller) -> bool:
+        for i, users in enumerate(self.rt.io_users):
+            if self.io_statuses[i] != Status.OK and controller in users:
+                self.controller_error = f"{self._io_errors[i]}: {self.io[i].last_error}"
+                return True
+        return False
 
     def _gather(self, i: int, dev) -> None:
         """Device i's state into the robot's arrays."""

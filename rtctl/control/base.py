@@ -1,7 +1,8 @@
 """The Controller protocol (DESIGN §4).
 
-A controller owns the commands of some joints (one owner per joint, checked at start) and
-runs every ``divisor``-th tick. ``update`` writes into the preallocated command arrays it is
+A controller owns the commands of some joints (one owner per joint, checked at start; an
+observer owns none) and runs every ``divisor``-th tick. It may use non-joint devices (a
+framegrabber, an I/O board), which it receives by name through :meth:`Controller.bind`. ``update`` writes into the preallocated command arrays it is
 given and allocates nothing; what it wants recorded it exposes through ``internals``
 (name → preallocated array), which telemetry copies every tick.
 """
@@ -36,6 +37,13 @@ class Controller:
     def emit(self, tau_out: np.ndarray, tau: np.ndarray) -> None:
         """Copy the owned joints' torques into the command, without allocating."""
         np.copyto(tau_out, tau, where=self.mask)
+
+    def bind(self, devices: dict) -> None:
+        """Receive the non-joint devices the configuration's ``devices`` names (name → device),
+        before anything is opened. Raise TypeError or ValueError if one is not what this
+        controller needs; the default needs none."""
+        if devices:
+            raise ValueError(f"{type(self).__name__} uses no devices; got {', '.join(devices)}")
 
     def reset(self, state: JointState) -> None:
         """Forget history (integrators, estimates) before (re)starting from ``state``."""

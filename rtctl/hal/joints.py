@@ -10,7 +10,7 @@ import enum
 
 import numpy as np
 
-from rtctl.hal.lifecycle import Hardware, Lifecycle, Status
+from rtctl.hal.lifecycle import Hardware, Status
 
 
 class CommandMode(enum.IntEnum):
@@ -59,29 +59,6 @@ class JointGroup(Hardware):
     @property
     def n(self) -> int:
         return len(self.joint_names)
-
-    def read(self, t: float) -> Status:
-        """Update ``state``. Never raises: an exception becomes ``Status.ERROR``."""
-        if self.lifecycle not in (Lifecycle.INACTIVE, Lifecycle.ACTIVE):
-            return Status.ERROR
-        try:
-            return self._read(t)
-        except Exception as e:
-            self.last_error = f"read: {type(e).__name__}: {e}"
-            return Status.ERROR
-
-    def write(self, t: float) -> Status:
-        """Send ``command`` (ignored unless active). Never raises."""
-        if self.lifecycle is not Lifecycle.ACTIVE:
-            return Status.OK
-        try:
-            return self._write(t)
-        except Exception as e:
-            self.last_error = f"write: {type(e).__name__}: {e}"
-            return Status.ERROR
-
-    def _read(self, t: float) -> Status:
-        raise NotImplementedError
 
     def _write(self, t: float) -> Status:
         raise NotImplementedError

@@ -26,7 +26,13 @@ class Lifecycle(enum.Enum):
 
 
 class Hardware:
-    """Base of every device. ``name`` comes from the configuration."""
+    """Base of every device. ``name`` comes from the configuration.
+
+    Every tick the loop calls :meth:`read` (in its READ phase) and :meth:`write` (in its WRITE
+    phase); implementations provide ``_read``/``_write``. Joint devices are
+    :class:`~rtctl.hal.joints.JointGroup`; any other kind (framegrabber, I/O board …) derives
+    from this class directly and is reached by the controllers that name it.
+    """
 
     def __init__(self, name: str):
         self.name = name
@@ -66,7 +72,34 @@ class Hardware:
                 self.last_error = f"close: {e}"
         self.lifecycle = Lifecycle.CLOSED
 
+    # -- every tick -------------------------------------------------------------------
+    def read(self, t: float) -> Status:
+        """Update the device's inputs. Never raises: an exception becomes ``Status.ERROR``."""
+        if self.lifecycle not in (Lifecycle.INACTIVE, Lifecycle.ACTIVE):
+            return Status.ERROR
+        try:
+            return self._read(t)
+        except Exception as e:
+            self.last_error = f"read: {type(e).__name__}: {e}"
+            return Status.ERROR
+
+    def write(self, t: float) -> Status:
+        """Send the device's outputs (ignored unless active). Never raises."""
+        if self.lifecycle is not Lifecycle.ACTIVE:
+            return Status.OK
+        try:
+            return self._write(t)
+        except Exception as e:
+            self.last_error = f"write: {type(e).__name__}: {e}"
+            return Status.ERROR
+
     # -- hooks for implementations ---------------------------------------------------
+    def _read(self, t: float) -> Status:
+        raise NotImplementedError
+
+    def _write(self, t: float) -> Status:
+        return Status.OK
+
     def _on_configure(self) -> None:
         """Open the link; after this, states are readable."""
 
