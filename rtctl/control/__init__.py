@@ -13,6 +13,7 @@ CONTROLLERS = {
     "pd_gravity": "rtctl.control.pd_gravity:PDGravity",
     "computed_torque": "rtctl.control.computed_torque:ComputedTorque",
     "slotine_li": "rtctl.control.slotine_li:SlotineLi",
+    "marker_observer": "rtctl.vision.observer:MarkerObserver",  # owns no command: watches the tool marker
 }
 
 

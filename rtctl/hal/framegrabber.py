@@ -7,10 +7,10 @@ packed pixels through on-board memory shared with the host. Its settings are
 file and key path). A :class:`Frame` carries its sequence number, its capture time on the
 loop's clock and the settings it was taken with.
 
-The loop calls :meth:`FrameGrabber.read` in its READ phase: it picks up the newest complete
-frame without waiting (a sequence the device produced while nobody looked is *dropped* and
-counted). :meth:`FrameGrabber.grab` then hands that frame out once, or None.
-:meth:`FrameGrabber.write` (WRITE phase) sends settings changed with :meth:`apply`.
+The loop calls ``read`` in its READ phase: it picks up the newest complete frame without
+waiting (a frame the device completed while nobody looked is *dropped* and counted).
+:meth:`FrameGrabber.grab` then hands that frame out once, or None. ``write`` (WRITE phase)
+sends settings changed with :meth:`FrameGrabber.apply`; activating the device programs it.
 """
 from __future__ import annotations
 
@@ -19,10 +19,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from rtctl.errors import SettingsError
-from rtctl.hal.lifecycle import Hardware, Lifecycle, Status
+from rtctl.hal.lifecycle import Hardware, Status
 
 DENSITIES = (64, 128, 256, 512)  # 2^k × 2^k sampling grids, k = 6..9
-SCANS = ("odd", "even", "frame")  # one field (every other line) or the interlaced frame
+SCANS = ("odd", "even", "fields", "frame")  # odd or even fields (25 Hz), every field (50 Hz), interlaced frames (25 Hz)
 LEVELS = {2: 1, 4: 2, 16: 4, 256: 8}  # grey levels → bits per pixel
 WORD_BITS = (8, 16, 32)  # the parallel output's word
 MEMORY_BYTES = 256 * 1024  # on-board RAM: what one N-shot burst must fit
@@ -37,7 +37,7 @@ class GrabberSettings:
 
     density: int = 512
     window: tuple[int, int, int, int] | None = None  # None: the full grid
-    scan: str = "odd"
+    scan: str = "fields"
     offset: int = 0  # black level subtracted, in 1/255 of full scale (256 steps)
     gain: int = UNITY_GAIN  # amplifier factor 2^((gain − 128)/64), ×1/4 … ×4 (256 steps)
     levels: int = 256
@@ -73,8 +73,8 @@ class GrabberSettings:
 
     @property
     def period_s(self) -> float:
-        """Time between images: a field every 20 ms, an interlaced frame every 40 ms."""
-        return 2 * FIELD_PERIOD_S if self.scan == "frame" else FIELD_PERIOD_S
+        """Time between images: every field 20 ms; odd or even fields, or frames, 40 ms."""
+        return FIELD_PERIOD_S if self.scan == "fields" else 2 * FIELD_PERIOD_S
 
     @property
     def gain_factor(self) -> float:
@@ -135,7 +135,7 @@ class GrabberSettings:
             raise t.error("window", f"[x, y, width, height], got {window!r}")
         try:
             s = cls(density=t.int("density", 512), window=None if window is None else tuple(window),
-                    scan=t.str("scan", "odd"), offset=t.int("offset", 0), gain=t.int("gain", UNITY_GAIN),
+                    scan=t.str("scan", "fields"), offset=t.int("offset", 0), gain=t.int("gain", UNITY_GAIN),
                     levels=t.int("levels", 256), word_bits=t.int("word_bits", 32), shots=t.int("shots", 0))
         except SettingsError as e:
             raise t.error(e.key, e.expected) from None
@@ -154,44 +154,50 @@ class Frame:
     ``words`` are the packed pixels, (rows, words_per_row) of uint8/16/32 — usually a
     zero-copy view of the device's buffer, valid until the device's next new frame (call
     :meth:`copy` to keep one). :meth:`pixels` unpacks them into grey levels 0 … levels − 1.
-    ``capture_time`` is on the loop's clock (s): when the first field was sampled.
+    ``capture_time`` is on the loop's clock (s): when the (first) field was sampled;
+    ``field`` is "odd" or "even" for a single field, "frame" for an interlaced frame.
     """
 
-    __slots__ = ("seq", "capture_time", "settings", "words", "_unpack")
+    __slots__ = ("seq", "capture_time", "field", "settings", "words", "_unpack")
 
-    def __init__(self, seq: int, capture_time: float, settings: GrabberSettings, words: np.ndarray, unpack):
-        self.seq, self.capture_time, self.settings, self.words = seq, capture_time, settings, words
-        self._unpack = unpack  # (words, settings, out) → out
+    def __init__(self, seq: int, capture_time: float, field: str, settings: GrabberSettings, words: np.ndarray,
+                 unpack):
+        self.seq, self.capture_time, self.field, self.settings, self.words = seq, capture_time, field, settings, words
+        self._unpack = unpack  # (words, bits, out) → out
 
-    def pixels(self, out: np.ndarray | None = None) -> np.ndarray:
-        """Grey levels as (rows, width) uint8; into ``out`` when given (no allocation)."""
+    def pixels(self, out: np.ndarray | None = None, rows: slice = slice(None)) -> np.ndarray:
+        """Grey levels of the image's ``rows`` as (n, width) uint8; into ``out`` when given
+        (no allocation)."""
         s = self.settings
+        words = self.words[rows]
+        shape = (words.shape[0], s.width)
         if out is None:
-            out = np.empty((s.rows, s.width), dtype=np.uint8)
-        elif out.shape != (s.rows, s.width) or out.dtype != np.uint8:
-            raise ValueError(f"out must be ({s.rows}, {s.width}) uint8, got {out.shape} {out.dtype}")
-        return self._unpack(self.words, s, out)
+            out = np.empty(shape, dtype=np.uint8)
+        elif out.shape != shape or out.dtype != np.uint8:
+            raise ValueError(f"out must be {shape} uint8, got {out.shape} {out.dtype}")
+        return self._unpack(words, s.bits, out)
 
     def copy(self) -> "Frame":
-        return Frame(self.seq, self.capture_time, self.settings, self.words.copy(), self._unpack)
+        return Frame(self.seq, self.capture_time, self.field, self.settings, self.words.copy(), self._unpack)
 
-    def row_of(self, r: float) -> float:
-        """Grid row (0 … density − 1) of image row ``r`` (a field's rows are every other line)."""
-        s = self.settings
-        if s.scan == "frame":
-            return s.window[1] + r
-        return s.window[1] + 2 * r + (s.scan == "even")
+    def grid_row(self, r: float) -> float:
+        """Grid row (0 … density − 1) of image row ``r``: a field holds every other line,
+        the odd field (TV lines 1, 3, …) the grid's rows 0, 2, …"""
+        y = self.settings.window[1]
+        if self.field == "frame":
+            return y + r
+        return y + 2 * r + (self.field == "even")
 
     def __repr__(self) -> str:
         s = self.settings
-        return (f"Frame(seq={self.seq}, t={self.capture_time:.4f}, {s.scan} {s.rows}×{s.width} "
+        return (f"Frame(seq={self.seq}, t={self.capture_time:.4f}, {self.field} {s.rows}×{s.width} "
                 f"@{s.density}, {s.levels} levels in {s.word_bits}-bit words)")
 
 
 class FrameGrabber(Hardware):
     """Base of framegrabber devices: implement ``_poll(t)`` (fetch the newest complete
-    frame into ``self._latest`` without waiting; return True when it is new) and ``_send``
-    (program the settings), plus the lifecycle hooks."""
+    frame into ``self._latest`` without waiting; return True when it is new) and
+    ``_send(settings, t)`` (program the device), plus the lifecycle hooks."""
 
     kind = "framegrabber"
 
@@ -214,29 +220,19 @@ class FrameGrabber(Hardware):
         """Start another burst of ``settings.shots`` frames (N-shot mode)."""
         self._pending = self.settings
 
-    def read(self, t: float) -> Status:
-        """Pick up the newest complete frame, if any (never waits, never raises)."""
-        if self.lifecycle not in (Lifecycle.INACTIVE, Lifecycle.ACTIVE):
-            return Status.ERROR
-        try:
-            if self._poll(t):
-                self._fresh = True
-            return Status.OK
-        except Exception as e:
-            self.last_error = f"read: {type(e).__name__}: {e}"
-            return Status.ERROR
+    def _read(self, t: float) -> Status:
+        if self._poll(t):
+            self._fresh = True
+        return Status.OK
 
-    def write(self, t: float) -> Status:
-        """Send settings changed since the last write (ignored unless active). Never raises."""
-        if self.lifecycle is not Lifecycle.ACTIVE or self._pending is None:
-            return Status.OK
-        try:
+    def _write(self, t: float) -> Status:
+        if self._pending is not None:
             self._send(self._pending, t)
             self._pending = None
-            return Status.OK
-        except Exception as e:
-            self.last_error = f"write: {type(e).__name__}: {e}"
-            return Status.ERROR
+        return Status.OK
+
+    def _on_activate(self) -> None:
+        self._write(0.0)  # the device starts grabbing as soon as it is programmed
 
     def grab(self) -> Frame | None:
         """The newest complete frame picked up by ``read`` and not yet handed out, else None."""

@@ -58,15 +58,16 @@ def _pack_bytes(pixels, bits, flip, dst):
 
 
 @njit(cache=True)
-def _digitise(analog, black, gain, levels, out):
-    top = levels - 1
+def _digitise(analog, black, scale, top, out):
+    """out ← min(max((analog − black) · scale, 0), top), truncated (branch-free: vectorises)."""
+    b, s, t = np.float32(black), np.float32(scale), np.float32(top)
     for i in range(analog.shape[0]):
-        v = (analog[i] - black) * gain
-        if v <= 0.0:
-            out[i] = 0
-        else:
-            code = int(v * levels)
-            out[i] = code if code < top else top
+        v = (analog[i] - b) * s
+        if v < 0:
+            v = np.float32(0)
+        if v > t:
+            v = t
+        out[i] = np.uint8(v)
 
 
 def _check_words(words: np.ndarray) -> int:
@@ -140,7 +141,7 @@ def digitise(analog: np.ndarray, offset: int, gain_factor: float, levels: int, o
         raise ValueError(f"out must be C-contiguous uint8 of shape {analog.shape}")
     if levels not in (2, 4, 16, 256) or not 0 <= offset <= 255 or not gain_factor > 0:
         raise ValueError(f"levels 2/4/16/256, offset 0..255, gain > 0; got {levels}, {offset}, {gain_factor}")
-    _digitise(analog.reshape(-1), offset / 255.0, float(gain_factor), levels, out.reshape(-1))
+    _digitise(analog.reshape(-1), offset / 255.0, float(gain_factor) * levels, levels - 1, out.reshape(-1))
     return out
 
 
