@@ -14,6 +14,7 @@ own options (``backend``, ``shm``, ``device`` …) are accepted and unused here.
 """
 from __future__ import annotations
 
+import os
 import threading
 import time
 
@@ -22,7 +23,7 @@ import numpy as np
 from drivers.protocols.framegrabber import (CLOCK_LOOP, CLOCK_MONOTONIC, GrabberMemory, HostPort, buffer_bytes,
                                             warm_up as warm_up_protocol)
 from rtctl.hal.framegrabber import FIELD_PERIOD_S, FrameGrabber, GrabberSettings
-from rtctl.tomltable import Table
+from rtctl.tomltable import ENV_TEMPLATE, Table
 from rtctl.vision.pixels import warm_up as warm_up_pixels
 from hil_sim.camera import FIELD_NS, CameraSim
 from hil_sim.render import Scene
@@ -118,3 +119,55 @@ class FreeRunningCamera:
         c = self.camera
         return {"fields": c.field + 1, "images": c.port.seq, "no_free_slot": c.port.skipped,
                 "missed_fields": c.missed_fields, "settings_errors": c.settings_errors}
+
+
+class CameraServer:
+    """One framegrabber device of a configuration, served by ``hil-sim``: the named shared
+    memory (created here, removed at exit) and the free-running camera writing into it."""
+
+    def __init__(self, device: Table, model, q_source, index: int):
+        from multiprocessing import shared_memory
+
+        self.name = device.str("name")
+        settings, scene = read_options(_without(device, "name", "kind", "driver"))
+        value = device.data.get("shm", "rtctl-framegrabber")
+        names = [m[0] for m in ENV_TEMPLATE.findall(value)] if isinstance(value, str) else []
+        # a name given by a variable is made unique here and handed over (hil-sim's JSON line)
+        self.shm_name = f"rtctl-fg-{os.getpid()}-{index}" if names else str(value)
+        self.env = {var: self.shm_name for var in names}
+        try:
+            self.shm = shared_memory.SharedMemory(self.shm_name, create=True, size=buffer_bytes())
+        except FileExistsError:
+            raise device.error("shm", f"a shared memory name not in use ({self.shm_name!r} exists: another "
+                                      f"hil-sim? remove /dev/shm/{self.shm_name} if it is stale)") from None
+        self.memory = GrabberMemory(self.shm.buf, create=True, clock=CLOCK_MONOTONIC)
+        self.settings = settings  # what the host will program (announced; the registers rule)
+        self.camera = FreeRunningCamera(scene, model, self.memory, q_source)
+
+    def info(self) -> dict:
+        return {"shm": self.shm_name, "settings": self.settings.__dict__}
+
+    def close(self) -> None:
+        self.camera.stop()
+        self.memory = self.camera = None  # views of the segment go before it is closed
+        try:
+            self.shm.close()
+        except BufferError:
+            pass
+        self.shm.unlink()
+
+
+def _without(t: Table, *keys: str) -> Table:
+    """The device table's options: what the device-level keys leave."""
+    for key in keys:
+        t.raw(key, None)
+    return t
+
+
+def camera_servers(config: Table, plant) -> list[CameraServer]:
+    """The configuration's framegrabber devices, each with its camera filming ``plant``."""
+    servers = []
+    for d in config.tables("devices", []):
+        if d.data.get("kind") == "framegrabber":
+            servers.append(CameraServer(d, plant.model, lambda: plant.q, len(servers)))
+    return servers

@@ -3,8 +3,10 @@
 Panels, each drawn only when its columns were recorded: joint tracking (``q`` against
 ``q_des``, one panel per joint), tracking errors ``q_des − q``, torques ``tau``, timing
 histograms (every column named ``*_ns``: per-phase compute times, wake lateness), the
-sliding variable ``s``, and adaptive estimates (columns starting with ``params_hat`` or
-``pi_hat``). The time axis is ``t`` when recorded, the tick index otherwise.
+sliding variable ``s``, adaptive estimates (columns starting with ``params_hat`` or
+``pi_hat``), and the tool marker seen by a camera (``marker_measured_px`` against
+``marker_predicted_px``, and their difference ``marker_error_px``). The time axis is ``t``
+when recorded, the tick index otherwise.
 
 matplotlib is the optional extra ``plot``; it is imported here only, and drawn through its
 object API with the Agg canvas (no pyplot state, no display needed).
@@ -81,6 +83,29 @@ def _estimates(t, tel, names):
     return draw
 
 
+def _marker(t, tel):
+    def draw(ax):
+        measured, predicted = _columns(tel, "marker_measured_px"), _columns(tel, "marker_predicted_px")
+        for k, axis in enumerate("uv"):
+            ax.plot(t, predicted[:, k], "--", lw=1.0, label=f"{axis} predicted")
+            ax.plot(t, measured[:, k], lw=0.8, label=f"{axis} measured")
+        ax.set_title("tool marker in the image")
+        ax.set_ylabel("px")
+        ax.legend(fontsize=6, loc="best")
+    return draw
+
+
+def _marker_error(t, tel):
+    def draw(ax):
+        error = _columns(tel, "marker_error_px")
+        for k, axis in enumerate("uv"):
+            ax.plot(t, error[:, k], lw=0.8, label=axis)
+        ax.set_title("marker measured − predicted")
+        ax.set_ylabel("px")
+        ax.legend(fontsize=6, loc="best")
+    return draw
+
+
 def _panels(tel):
     t = tel["t"] if "t" in tel else np.arange(tel.rows)
     panels = []
@@ -96,6 +121,8 @@ def _panels(tel):
         panels.append(_timing(tel, timing))
     if "s" in tel:
         panels.append(lambda ax: _per_joint(ax, t, _columns(tel, "s"), "sliding variable s", "rad/s"))
+    if "marker_measured_px" in tel and "marker_predicted_px" in tel:
+        panels += [_marker(t, tel), _marker_error(t, tel)]
     estimates = [name for name in tel.columns if name.startswith(ESTIMATE_PREFIXES)]
     if estimates:
         panels.append(_estimates(t, tel, estimates))
