@@ -49,7 +49,7 @@ class PictureDigitiser:
         s = self.settings
         rows = self.rows[field]
         if rows.size != s.rows:
-            raise ValueError(f"a {field} image has {rows.size} rows; these settings deliver {s.rows}")
+            raise ValueError(f"the {field} lines of the window are {rows.size} rows; these settings deliver {s.rows}")
         np.take(picture, rows, axis=0, out=self._rows_buf[:rows.size])
         np.take(self._rows_buf[:rows.size], self.cols, axis=1, out=self._sampled)
         np.multiply(self._sampled, np.float32(1 / 255), out=self._analog)
