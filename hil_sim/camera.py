@@ -20,7 +20,7 @@ import numpy as np
 from drivers.protocols.framegrabber import DONE, FAULT, IDLE, RUNNING, S_FIELDS, S_HEARTBEAT, DevicePort, decode
 from rtctl.errors import SettingsError
 from rtctl.hal.framegrabber import FIELD_PERIOD_S, MEMORY_BYTES
-from rtctl.vision.pixels import digitise, pack
+from rtctl.vision.pixels import _digitise_pack  # (the image's shapes are checked once, by its settings)
 from hil_sim.render import Renderer
 
 FIELD_NS = round(FIELD_PERIOD_S * 1e9)
@@ -28,11 +28,21 @@ FIRST_FIELD = {"odd": "odd", "even": "even", "fields": None, "frame": "odd"}
 
 
 class _Image:
-    """An image being grabbed: its slot, settings and the fields still to come."""
+    """An image being grabbed: its slot, settings, the fields still to come, and its bands —
+    the image rows each tick of a field draws — worked out once."""
 
-    def __init__(self, slot, settings, gen, regs, fields, capture_ns, words):
+    def __init__(self, slot, settings, gen, regs, fields, capture_ns, words, analog, bands):
         self.slot, self.settings, self.gen, self.regs = slot, settings, gen, regs
-        self.fields, self.index, self.capture_ns, self.words = fields, 0, capture_ns, words
+        self.fields, self.index, self.capture_ns = fields, 0, capture_ns
+        s = settings
+        rows, width = s.rows, s.width
+        self.analog = analog[:rows * width].reshape(rows, width)
+        self.flat = self.analog.reshape(-1)
+        self.bytes = words.view(np.uint8).reshape(-1)
+        self.row_bytes = s.frame_bytes // rows
+        self.digitiser = (s.offset / 255.0, s.gain_factor * s.levels, s.levels - 1, s.bits, s.word_bits // 8 - 1)
+        per_band = -(-rows // bands)
+        self.bands = [(b * per_band, min((b + 1) * per_band, rows)) for b in range(bands)]
 
 
 class CameraSim:
@@ -55,8 +65,7 @@ class CameraSim:
         self.state = IDLE
         self.missed_fields = 0  # field boundaries the caller stepped over (free-running under load)
         self.settings_errors = 0
-        self._analog = np.zeros(MEMORY_BYTES, dtype=np.float32)
-        self._levels = np.zeros(MEMORY_BYTES, dtype=np.uint8)
+        self._analog = np.zeros(MEMORY_BYTES, dtype=np.float32)  # the video signal of the largest image
 
     # -- time ------------------------------------------------------------------------------
     def step(self, t_ns: int) -> None:
@@ -114,7 +123,7 @@ class CameraSim:
                 return
             fields = ("odd", "even") if s.scan == "frame" else (parity,)
             self.image = _Image(slot, s, self.gen, self.regs, fields, self.epoch_ns + k * FIELD_NS,
-                                self.memory.words(slot, s))
+                                self.memory.words(slot, s), self._analog, self.bands)
         self.renderer.freeze(self.q_source(), self.image.settings.density, k)
 
     def _apply_registers(self) -> None:
@@ -139,22 +148,19 @@ class CameraSim:
         """Image rows of band b: draw this field's share; digitise and pack them when the
         image's last field has drawn them."""
         image = self.image
-        s = image.settings
-        rows, width = s.rows, s.width
-        per_band = -(-rows // self.bands)
-        begin, end = b * per_band, min((b + 1) * per_band, rows)
+        begin, end = image.bands[b]
         if begin >= end:
             return
+        s = image.settings
         x, y = s.window[0], s.window[1]
         field = image.fields[image.index]
-        analog = self._analog[:rows * width].reshape(rows, width)
         if len(image.fields) == 1:  # a field: image row i is grid row y + 2i (+1 for the even field)
             band, row0, row_step = range(begin, end), y + (field == "even"), 2
         else:  # a frame: image row i is grid row y + i; this field draws the rows of its parity
             first = begin + ((y + begin) % 2 != (field == "even"))
             band, row0, row_step = range(first, end, 2), y, 1
-        self.renderer.draw(analog, band, row0, row_step, x, s.density)
+        self.renderer.draw(image.analog, band, row0, row_step, x, s.density)
         if image.index == len(image.fields) - 1:
-            levels = self._levels[:rows * width].reshape(rows, width)
-            digitise(analog[begin:end], s.offset, s.gain_factor, s.levels, levels[begin:end])
-            pack(levels[begin:end], s.bits, s.word_bits, image.words[begin:end])
+            width, row_bytes = s.width, image.row_bytes
+            _digitise_pack(image.flat[begin * width:end * width], *image.digitiser,
+                           image.bytes[begin * row_bytes:end * row_bytes])

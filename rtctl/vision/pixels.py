@@ -70,6 +70,41 @@ def _digitise(analog, black, scale, top, out):
         out[i] = np.uint8(v)
 
 
+@njit(cache=True)
+def _digitise_pack(analog, black, scale, top, bits, flip, dst):
+    """The digitiser and the packing in one pass: dst[i ^ flip] ← the codes of the 8/bits
+    video levels starting at analog[i·8/bits], first in the MSBs."""
+    ppb = 8 // bits
+    b, s, t = np.float32(black), np.float32(scale), np.float32(top)
+    for i in range(dst.shape[0]):
+        v = 0
+        for k in range(ppb):
+            x = (analog[i * ppb + k] - b) * s
+            if x < 0:
+                x = np.float32(0)
+            if x > t:
+                x = t
+            v = (v << bits) | int(x)
+        dst[i ^ flip] = v
+
+
+def digitise_pack(analog: np.ndarray, offset: int, gain_factor: float, levels: int, words: np.ndarray) -> np.ndarray:
+    """Video levels (rows, width) float32 → grey levels packed into ``words`` (rows,
+    words_per_row), as :func:`digitise` then :func:`pack` would, in one pass."""
+    word_bits = _check_words(words)
+    if not isinstance(analog, np.ndarray) or analog.dtype != np.float32 or analog.ndim != 2 \
+            or not analog.flags.c_contiguous:
+        raise ValueError("analog must be a C-contiguous 2-D float32 array")
+    bits = {2: 1, 4: 2, 16: 4, 256: 8}.get(levels)
+    if bits is None or not 0 <= offset <= 255 or not gain_factor > 0:
+        raise ValueError(f"levels 2/4/16/256, offset 0..255, gain > 0; got {levels}, {offset}, {gain_factor}")
+    if words.shape[0] != analog.shape[0] or words.shape[1] * word_bits != analog.shape[1] * bits:
+        raise ValueError(f"{words.shape} words of {word_bits} bits do not hold {analog.shape} pixels of {bits} bits")
+    _digitise_pack(analog.reshape(-1), offset / 255.0, float(gain_factor) * levels, levels - 1, bits,
+                   word_bits // 8 - 1, words.view(np.uint8).reshape(-1))
+    return words
+
+
 def _check_words(words: np.ndarray) -> int:
     if not isinstance(words, np.ndarray) or words.ndim != 2 or words.dtype not in WORD_DTYPES.values():
         raise ValueError(f"words must be a 2-D array of little-endian uint8/16/32, got "
@@ -151,3 +186,4 @@ def warm_up() -> None:
     for bits in (1, 2, 4):
         unpack(pack(px, bits, 32), bits, px)
     digitise(np.zeros(4, dtype=np.float32), 0, 1.0, 256, np.zeros(4, dtype=np.uint8))
+    digitise_pack(np.zeros((1, 32), dtype=np.float32), 0, 1.0, 2, np.zeros((1, 1), dtype=np.uint32))
