@@ -45,6 +45,17 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument("config")
     check.add_argument("--sim", action="store_true", help="check as `run --sim` would")
 
+    margins = sub.add_parser(
+        "margins", help="stability margins of the adaptive controllers against the wire's delay",
+        description="For each Slotine–Li controller of CONFIG: the spectral radius of its sampled closed loop "
+                    "and how far P and K_D may grow (or K_D shrink) before it loses stability, at the worst "
+                    "point of the configured trajectory, with the measurement 0, 1 and 2 periods old (over a "
+                    "CAN wire a drive's reply is one period old, two when it misses its deadline). "
+                    "See docs/cstar_delay.md.")
+    margins.add_argument("config")
+    margins.add_argument("--rate", type=float, nargs="+", metavar="HZ",
+                         help="loop rates to analyse (default: the configuration's)")
+
     model = sub.add_parser("model", help="print a robot: joints, tool pose, H, G and a timing line")
     model.add_argument("robot", help="robot description: D-H TOML or URDF")
     model.add_argument("--q", type=float, nargs="+", metavar="Q", help="configuration (rad/m; default home = 0)")
@@ -123,6 +134,10 @@ def _dispatch(args) -> int:
         from rtctl.commands import check
 
         return check(args)
+    if args.command == "margins":
+        from rtctl.commands import margins
+
+        return margins(args)
     if args.command == "model":
         from rtctl.commands import print_model
 

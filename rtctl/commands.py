@@ -45,6 +45,31 @@ def print_model(args) -> int:
     return EXIT_OK
 
 
+def margins(args) -> int:
+    """The delay margins of every adaptive (Slotine–Li) controller of a configuration."""
+    from rtctl.config import load_config
+    from rtctl.control.margins import format_margins, trajectory_margins
+    from rtctl.daemon import _trajectory_limits
+    from rtctl.errors import ConfigError
+    from rtctl.runtime import build
+    from rtctl.trajectory import through_waypoints
+
+    cfg = load_config(args.config)
+    adaptive = [(c, spec) for c, spec in zip(build(cfg).controllers, cfg.controllers) if hasattr(c, "gamma")]
+    if not adaptive:
+        raise ConfigError(cfg.file, "controllers", "a slotine_li controller to analyse")
+    if cfg.trajectory is None:
+        raise ConfigError(cfg.file, "trajectory", "a trajectory: the margins are taken along it")
+    trajectory = through_waypoints(cfg.trajectory.waypoints, _trajectory_limits(cfg), smooth=cfg.trajectory.smooth)
+    for rate in args.rate or [cfg.loop.rate_hz]:
+        if not (rate > 0 and np.isfinite(rate)):
+            raise ConfigError("<command line>", "--rate", f"a positive rate in Hz, got {rate}")
+        for c, spec in adaptive:
+            m = trajectory_margins(cfg.model, c, trajectory, rate / spec.divisor, motor_model=c.motor_model)
+            print(format_margins(c.name, rate / spec.divisor, m))
+    return EXIT_OK
+
+
 def check(args) -> int:
     """Validate everything `run` would, without touching a device; print the bus budget."""
     from rtctl.config import load_config

@@ -10,7 +10,10 @@ compiled call per tick. Λ, K_D diagonal (per joint); P diagonal (per link and p
 
 **Integration.** dπ̂/dt is integrated at the controller's rate by explicit Euler: tick k applies
 π̂ ← π̂ + (t_k − t_{k−1}) · dπ̂/dt|_{k−1} and then computes τ_k with the new π̂ — the step is
-the time actually elapsed since the previous update (period × divisor in a regular loop).
+the time actually elapsed since the previous update (period × divisor in a regular loop). A tick
+whose state is stale on any joint (a drive's reply missed its deadline) contributes no
+adaptation: its s is older than its regressor. How the sampling and the wire's delay bound the
+gains: :mod:`rtctl.control.margins`.
 
 **Options and the guarantees** (continuous time, exact model of the rigid body):
 ``V = ½ sᵀ H s + ½ π̃ᵀ P⁻¹ π̃`` has dV/dt = −sᵀ K_D s ≤ 0 (Proposition 2 makes this hold for
@@ -192,4 +195,6 @@ class SlotineLi(Controller):
         self._t_prev = t
         self._tick(self.settings, self._work, state.position, state.velocity, ref.q, ref.qd, ref.qdd, self.signals,
                    self.params_dot)
+        if not state.fresh.all():  # a stale joint's s is not this tick's: do not adapt on it
+            self.params_dot.fill(0.0)
         self.emit(command.tau_ff, self.tau)

@@ -148,8 +148,9 @@ class Ticker:
             self.stats.record(self.lateness_ns, self.phase_ns, end - self._wake_ns)
             next_deadline = self._start_ns + k_next * self._grid_den // self._grid_num
             if end > next_deadline:
-                # first grid index m with deadline(m) > end, i.e. m·den/num ≥ end − start + 1
-                m = -(-(end - self._start_ns + 1) * self._grid_num // self._grid_den)
+                # the first grid point not yet past: m with deadline(m) ≥ end, i.e. m·den/num ≥ end − start
+                # (ending exactly on a deadline is on time for that tick, as for the next one)
+                m = -(-(end - self._start_ns) * self._grid_num // self._grid_den)
                 self._overrun(end, end - next_deadline, m - k_next)
                 k_next = m
             else:

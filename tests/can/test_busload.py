@@ -89,3 +89,17 @@ def test_budget_table():
     )
     lines = table.splitlines()
     assert len(lines) == 3 and "75%" in lines[1] and "150%" in lines[2] and "limit" in lines[2]
+
+
+@pytest.mark.parametrize("protocol, joints", [("mit", 3), ("mit", 6), ("cia402", 4)])
+def test_exactly_the_limit_is_accepted_and_one_bit_per_second_less_capacity_is_not(protocol, joints):
+    bits = busload.bus_load("a", protocol, joints, 1000, 1_000_000).bits_per_tick
+    exact = bits * 1000 * 5 // 4  # the bitrate at which the load is exactly 80 %
+    at_limit = busload.bus_load("a", protocol, joints, 1000, exact)
+    assert at_limit.load == busload.DEFAULT_LIMIT == 0.8
+    assert busload.check_bus_load(at_limit, "r.toml", "buses.a") is at_limit
+    assert "limit" not in busload.format_budget([at_limit]).splitlines()[1]
+    over = busload.bus_load("a", protocol, joints, 1000, exact - 1)
+    with pytest.raises(BusLoadError):
+        busload.check_bus_load(over, "r.toml", "buses.a")
+    assert "limit" in busload.format_budget([over]).splitlines()[1]

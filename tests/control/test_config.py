@@ -25,7 +25,7 @@ def test_shipped_config_builds_the_cstar_controller():
     (c,) = rt.controllers
     assert isinstance(c, SlotineLi) and c.law == "cstar" and c.projection and c.motor_model
     assert not c.params_hat.any()  # starts from zeros
-    assert c.gamma[:, 0].tolist() == [20.0] * 6 and c.gamma[:, 9].tolist() == [5.0] * 6
+    assert c.gamma[:, 0].tolist() == [2.0] * 6 and c.gamma[:, 9].tolist() == [0.5] * 6
 
 
 def configured(tmp_path, options: str) -> Path:
@@ -84,8 +84,10 @@ def test_rtctl_run_tracks_and_records_estimates(tmp_path):
                            "--summary", str(summary)], capture_output=True, text=True, timeout=120, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr[-2000:]
     result = json.loads(summary.read_text())
-    assert result["tracking_error_rad"]["max_all"] < 0.02  # measured 0.0117 rad, in the first 0.3 s
-    assert result["tracking_error_rad"]["rms_all"] < 3e-3  # measured 1.6·10⁻³ rad over 4 s (1.0·10⁻³ over 10 s)
+    tracking = result["tracking_error_rad"]
+    print(f"C* from zeros, 4 s: max {tracking['max_all']:.4f} rad, rms {tracking['rms_all']:.5f} rad")
+    assert tracking["max_all"] < 0.03  # measured 0.0146 rad, in the first second while the estimates rise
+    assert tracking["rms_all"] < 8e-3  # measured 3.9·10⁻³ rad over 4 s (2.5·10⁻³ over 10 s)
     tel = read(tmp_path / "run.msgpack")
     assert tel["params_hat"].shape[1] == 60 and tel["s"].shape[1] == 6
     assert np.all(np.isfinite(tel["params_hat"]))

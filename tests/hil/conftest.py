@@ -1,17 +1,19 @@
 import pytest
 
 # The HIL tests close a real-time loop across two processes on whatever machine runs them. This
-# shared 2-core VM now and then stops the loop for several milliseconds even at SCHED_FIFO (wake
-# lateness p99 from 3 µs to 5 ms between otherwise identical runs); a run hit by such stalls
-# overruns, and the closed loop — the adaptive law most of all — loses its accuracy. Such a run is
-# retried up to 3 times; a real regression fails all four.
+# shared 2-core VM now and then stops a process for several milliseconds even at SCHED_FIFO (wake
+# lateness p99 from 3 µs to 5 ms between otherwise identical runs); a run hit by such a stall
+# overruns or misses replies, and the closed loop loses accuracy. Only such a run is retried: a
+# bound checked under hil_helpers.unless_stalled fails as VmStall when the run's own record shows
+# the stall (overruns, late wake-ups, missing replies), and as a plain failure — never retried —
+# when the run was quiet. The exact fault-timing checks are not under unless_stalled at all.
 HIL_RERUNS = 3
 
 
 def pytest_collection_modifyitems(items):
     for item in items:
         if item.get_closest_marker("hil") is not None:
-            item.add_marker(pytest.mark.flaky(reruns=HIL_RERUNS))
+            item.add_marker(pytest.mark.flaky(reruns=HIL_RERUNS, only_rerun=["VmStall"]))
 
 from hil_helpers import HilSim
 from runtime_helpers import write_config  # noqa: F401  (fixture)

@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -61,16 +62,21 @@ class HilSim:
 
 def variant(tmp_path: Path, shipped: str, name: str = "run.toml", **settings) -> Path:
     """A copy of ``configs/<shipped>`` in ``tmp_path``: robot path made absolute, telemetry
-    dropped (the tests pass --telemetry), and ``key = value`` lines replaced by ``settings``."""
+    dropped (the tests pass --telemetry), and ``key = value`` lines replaced by ``settings``.
+    A setting the shipped file does not have is an error (it would silently not apply)."""
     text = (CONFIGS / shipped).read_text()
     text = text.replace('description = "robots/', f'description = "{CONFIGS}/robots/')
-    lines = []
+    lines, applied = [], set()
     for line in text.splitlines():
         key = line.split("=", 1)[0].strip()
         if key in settings:
             line = f"{key} = {settings[key]}"
+            applied.add(key)
         if not line.startswith("path = "):
             lines.append(line)
+    missing = sorted(set(settings) - applied)
+    if missing:
+        raise KeyError(f"configs/{shipped} has no {', '.join(missing)} to set")
     path = tmp_path / name
     path.write_text("\n".join(lines).replace("[telemetry]", "") + "\n")
     return path
@@ -83,6 +89,41 @@ def run(config, tmp_path: Path, env: dict, *extra, duration: float = 3.0, timeou
                    "--socket", tmp_path / "rtctl.sock", *extra, env=env, timeout=timeout)
     assert summary.exists(), result.stderr[-3000:]
     return result.returncode, json.loads(summary.read_text()), read(telemetry), result.stderr
+
+
+class VmStall(Exception):
+    """A bound failed in a run whose own record shows that the machine stalled it: the HIL
+    tests retry these (and only these, see conftest.py)."""
+
+
+def stall_in(summary: dict) -> str | None:
+    """What in the run's own record shows a stall of this (shared, virtual) machine: an
+    overrun of the loop, a wake-up later than half a period, or replies the drives' process
+    did not send in time. None when the run was quiet."""
+    timing = summary["timing"]
+    late_us = (timing.get("wake_lateness_us") or {}).get("max") or 0.0
+    missing = sum((d.get("counters") or {}).get("missing_replies", 0) for d in summary.get("devices", {}).values())
+    signs = []
+    if timing["overruns"]:
+        signs.append(f"{timing['overruns']} overrun(s)")
+    if late_us > timing["period_us"] / 2:
+        signs.append(f"a wake-up {late_us:.0f} µs late")
+    if missing:
+        signs.append(f"{missing} missing repl(ies)")
+    return ", ".join(signs) or None
+
+
+@contextmanager
+def unless_stalled(summary: dict):
+    """Check bounds inside: a failed one is a VmStall (retried) when the run's record shows a
+    stall, and a plain failure (not retried) when the run was quiet."""
+    try:
+        yield
+    except AssertionError as e:
+        stall = stall_in(summary)
+        if stall is None:
+            raise
+        raise VmStall(f"machine stall ({stall}): {e}") from e
 
 
 def wait_for(predicate, timeout: float = 30.0, step: float = 0.05) -> bool:

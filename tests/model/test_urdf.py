@@ -6,6 +6,7 @@ import pytest
 
 from rtctl.errors import ModelError
 from rtctl.model import PRISMATIC, REVOLUTE
+from rtctl.model.kinematics import link_poses
 from rtctl.model.rotations import rot_axis
 from rtctl.model.urdf import load_urdf, parse_urdf
 
@@ -124,3 +125,39 @@ def test_fixed_links_merge_their_inertia_into_the_body():
     np.testing.assert_allclose(p[:4], [5, 2, 6, 0])
     # J about the origin of point masses: Σ m (|r|² 1 − r rᵀ)
     np.testing.assert_allclose(p[4:], [3 * 4, 0, 2 * 1, 0, 0, 2 * 1 + 3 * 4])
+
+
+def _chain_with_axes(axes, seed):
+    """A serial chain whose joint k has axis ``axes[k]`` (None: no <axis> element), with
+    arbitrary placements, read by both parsers from the same text."""
+    rng = np.random.default_rng(seed)
+    links = ["base"] + [f"l{k}" for k in range(len(axes))]
+    inertia = ('<inertial><mass value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/>'
+               '</inertial>')
+    body = '<link name="base"/>' + "".join(f'<link name="{n}">{inertia}</link>' for n in links[1:])
+    joints = ""
+    for k, ax in enumerate(axes):
+        xyz, rpy = rng.uniform(-0.3, 0.3, 3), rng.uniform(-1, 1, 3)
+        axis = "" if ax is None else f'<axis xyz="{" ".join(map(str, ax))}"/>'
+        joints += (f'<joint name="j{k}" type="revolute"><parent link="{links[k]}"/><child link="{links[k + 1]}"/>'
+                   f'<origin xyz="{" ".join(map(str, xyz))}" rpy="{" ".join(map(str, rpy))}"/>{axis}'
+                   '<limit lower="-3" upper="3" effort="1" velocity="1"/></joint>')
+    return f'<robot name="axes">{body}{joints}</robot>'
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_axes_are_read_as_pinocchio_reads_them_unnormalised_or_absent(seed, pin):
+    """URDF's axis is a direction: "0 0 2" turns about z by q (not 2q); no <axis> means x."""
+    rng = np.random.default_rng(100 + seed)
+    axes = [None, (0, 0, 2), (0.5, 0, 0), tuple(rng.uniform(-3, 3, 3)), None, (0, -4, 0)]
+    text = _chain_with_axes(axes, seed)
+    model = parse_urdf(text)
+    pmodel = pin.buildModelFromXML(text)
+    pdata = pmodel.createData()
+    np.testing.assert_allclose(np.linalg.norm(model.axis, axis=1), 1.0, atol=1e-15)
+    for _ in range(5):
+        q = rng.uniform(-2, 2, len(axes))
+        pin.forwardKinematics(pmodel, pdata, q)
+        poses = link_poses(model, q)
+        for k in range(len(axes)):
+            np.testing.assert_allclose(poses[k], pdata.oMi[k + 1].homogeneous, atol=1e-12)

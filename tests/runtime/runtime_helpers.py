@@ -2,11 +2,14 @@
 from __future__ import annotations
 
 import os
+import socket
+import struct
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+import msgpack
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -63,14 +66,27 @@ class Daemon:
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
 
     def wait_ready(self, timeout=60.0):
+        """Until the loop answers ``status``: the socket exists before the loop runs (the
+        kernels may still be compiling), and a request then waits for the first tick."""
         end = time.monotonic() + timeout
         while time.monotonic() < end:
-            if self.socket.exists() and self.proc.poll() is None:
+            if self.socket.exists() and self.proc.poll() is None and self._answers():
                 return
             if self.proc.poll() is not None:
                 raise AssertionError(f"daemon exited {self.proc.returncode}: {self.proc.stderr.read()}")
             time.sleep(0.05)
         raise AssertionError("daemon did not open its socket")
+
+    def _answers(self) -> bool:
+        try:
+            with socket.socket(socket.AF_UNIX, socket.SOCK_STREAM) as s:
+                s.settimeout(0.5)
+                s.connect(str(self.socket))
+                body = msgpack.packb({"cmd": "status"})
+                s.sendall(struct.pack(">I", len(body)) + body)
+                return len(s.recv(4)) == 4
+        except OSError:
+            return False
 
     def finish(self, timeout=60.0):
         out, err = self.proc.communicate(timeout=timeout)

@@ -73,7 +73,8 @@ def test_malformed_requests_get_an_error_and_change_nothing(write_config, daemon
     ]
     for payload in bad:
         reply = raw_request(d.socket, payload)
-        assert reply is None or reply["ok"] is False
+        assert reply is not None, f"no reply to {payload[:20]!r}"  # an error reply, never a silent close
+        assert reply["ok"] is False and reply["error"], reply
     assert d.proc.poll() is None  # still running
     reply = raw_request(d.socket, frame({"cmd": "status"}))
     assert reply["ok"] and not reply["faults"]

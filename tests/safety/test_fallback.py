@@ -90,3 +90,25 @@ def test_impedance_fallback_is_closed_by_the_drive():
     assert r.step() == Verdict.FALLBACK
     np.testing.assert_array_equal(c.kp, 0.0)
     np.testing.assert_array_equal(c.kd, 2.0)
+
+
+@pytest.mark.parametrize("joint", range(3))
+@pytest.mark.parametrize("mode, field", [(CommandMode.TORQUE, "tau_ff")] + [
+    (CommandMode.IMPEDANCE, f) for f in ("tau_ff", "q_des", "qd_des", "kp", "kd")])
+def test_a_nonfinite_command_on_any_joint_is_caught_and_names_that_joint(joint, mode, field):
+    r = Rig()
+    r.command.mode = mode
+    getattr(r.command, field)[joint] = math.nan
+    assert r.step() == Verdict.FALLBACK
+    (f,) = r.stage.faults
+    assert f.kind == FaultKind.NONFINITE_COMMAND and f.joint == joint
+
+
+@pytest.mark.parametrize("joint", range(3))
+@pytest.mark.parametrize("field", ["position", "velocity"])
+def test_a_nonfinite_measurement_on_any_joint_is_caught_and_names_that_joint(joint, field):
+    r = Rig()
+    getattr(r.state, field)[joint] = math.inf
+    assert r.step() == Verdict.FALLBACK
+    assert [(f.kind, f.joint) for f in r.stage.faults] == [(FaultKind.NONFINITE_STATE, joint)]
+    assert np.all(np.isfinite(r.command.tau_ff))

@@ -80,6 +80,32 @@ def test_ending_exactly_on_the_next_deadline_is_not_an_overrun():
     assert (ticker.stats.overruns, ticker.stats.skipped_periods) == (1, 1)
 
 
+def test_a_tick_ending_exactly_on_a_later_deadline_runs_that_tick_on_time():
+    ticker, clock = make(start_ns=0)
+    run_tick(ticker, clock, (3 * P, 0, 0, 0, 0))  # tick 0 ends at 3 ms sharp: 1 and 2 are missed
+    assert run_tick(ticker, clock, (0,) * 5)[0] == 3
+    assert ticker.lateness_ns == 0
+    assert (ticker.stats.overruns, ticker.stats.skipped_periods) == (1, 2)
+    run_tick(ticker, clock, (2 * P + 1, 0, 0, 0, 0))  # tick 4 ends one ns past 6 ms: 5 and 6 are missed
+    assert run_tick(ticker, clock, (0,) * 5)[0] == 7
+    assert (ticker.stats.overruns, ticker.stats.skipped_periods) == (2, 4)
+
+
+@pytest.mark.parametrize("factor, tick_ns, overruns", [
+    (2.0, 800_000, True),  # 0.5 ms of wall time per period: a 0.8 ms tick overruns every time
+    (0.5, 1_500_000, False),  # 2 ms of wall time per period: a 1.5 ms tick is on time
+    (4.0, 300_000, True),
+    (0.25, 3_900_000, False),
+])
+def test_overruns_are_judged_on_the_scaled_grid(factor, tick_ns, overruns):
+    ticker, clock = make(start_ns=0, realtime_factor=factor, max_consecutive_overruns=5)
+    stops = [run_tick(ticker, clock, slow(tick_ns))[1] for _ in range(6)]
+    if overruns:
+        assert ticker.stats.overruns == 6 and stops == [False] * 4 + [True, True]
+    else:
+        assert ticker.stats.overruns == 0 and not any(stops)
+
+
 def test_a_late_wakeup_that_misses_the_next_deadline_counts_as_overrun():
     clock = FakeClock(0, wake_latency_ns=1_500_000)
     ticker = Ticker(P, clock=clock)

@@ -1,5 +1,7 @@
 """The mit_can driver in-process: the real driver on a python-can virtual bus, emulated drives
 (hil_sim.mit_drive) on the far end, pumped right after each send, on a clock the test owns."""
+import threading
+import time
 import uuid
 
 import can
@@ -25,8 +27,8 @@ class Rig(MitCanJointGroup):
         channel = f"test-{uuid.uuid4().hex}"
         bus = BusOptions({"interface": "virtual", "channel": channel}, 1_000_000, False,
                          ("virtual", channel, None, None), channel)
-        kw = {"reply_deadline": 0.0, "exchange_timeout": 0.0, **kw}
-        super().__init__("arm", joints, bus, period=0.001, **kw)
+        kw = {"reply_deadline": 0.0, "exchange_timeout": 0.0, "period": 0.001, **kw}
+        super().__init__("arm", joints, bus, **kw)
         n = len(joints)
         self.q, self.qd, self.tau = np.zeros(n), np.zeros(n), np.zeros(n)
         self.drive_list = [MitDrive(j.drive_id, MappedJointPort(self.q, self.qd, self.tau, k, j.direction, j.offset),
@@ -105,6 +107,48 @@ def test_impedance_through_a_reversed_mount_with_an_offset(rig):
     assert r.tau[0] == pytest.approx(50.0 * (0.2 - 0.1) + 2.0 * 0.1 + 1.0, abs=50 * P_LSB + 2 * V_LSB + T_LSB)
     r.read(r.now)
     assert r.state.position[0] == pytest.approx(0.1, abs=P_LSB)
+
+
+def test_a_reversed_mount_reads_position_velocity_and_effort_in_the_joint_frame(rig):
+    r = rig([MitJoint("a", 1, KATZ, direction=-1.0, offset=0.5), MitJoint("b", 2, KATZ)])
+    r.q[:], r.qd[:] = [0.1, 0.1], [0.7, 0.7]
+    r.activate()
+    r.command.tau_ff[:] = [2.0, 2.0]
+    r.tick()
+    r.read(r.now)
+    s = r.state
+    assert s.position == pytest.approx([0.1, 0.1], abs=P_LSB)
+    assert s.velocity == pytest.approx([0.7, 0.7], abs=V_LSB)  # not −0.7 on the reversed joint
+    assert s.effort == pytest.approx([2.0, 2.0], abs=T_LSB)
+    d = r.drive_list[0]
+    assert d.port.get_position() == pytest.approx(-(0.1 - 0.5)) and d.port.get_velocity() == pytest.approx(-0.7)
+
+
+class LateRig(Rig):
+    """The drives answer ``delay`` s after each command, from another thread (as a real bus does)."""
+
+    delay = 0.0
+
+    def _after_send(self):
+        threading.Timer(self.delay, pump, (self.drives, self.peer), {"now": self.now}).start()
+
+
+@pytest.mark.parametrize("delay, missing", [(0.002, 0), (0.3, 1)])
+def test_replies_are_awaited_for_the_reply_deadline_as_a_fraction_of_the_period(delay, missing):
+    # 20 Hz, reply_deadline 0.6: a reply is awaited for 30 ms — one 2 ms late is in time, one 300 ms late is not
+    r = LateRig([MitJoint("a", 1, KATZ)], reply_deadline=0.6, period=0.05, exchange_timeout=1.0)
+    try:
+        r.delay = 0.0
+        r.activate()
+        r.delay = delay
+        r.write(r.now)
+        assert r.counters["missing_replies"] == missing
+    finally:
+        time.sleep(0.35)  # the late reply's timer has fired
+        r.delay = 0.0
+        r.close()
+        time.sleep(0.05)  # and so has the answer to exit motor mode
+        r.peer.shutdown()
 
 
 def test_a_missing_reply_is_stale_and_the_stale_limit_is_an_error(rig):

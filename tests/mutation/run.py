@@ -1,0 +1,168 @@
+"""Mutation testing of the modules where a silent bug is dangerous, with cosmic-ray.
+
+    python tests/mutation/run.py safety [--sample N] [--workdir DIR] [--keep]
+    python tests/mutation/run.py all --sample 150
+
+For each target (see ``TARGETS``) it copies a committed tree (``git archive``, HEAD or ``--rev``) into a
+work directory — cosmic-ray rewrites the source on disk, one mutant at a time, so it must
+never run in the tree you work in — plants every mutant of the target's files in turn, runs
+the target's tests against the copy, and reports the survivors with their diffs and the
+survival rate. Not part of the suite (hours for everything); run it before changing the
+tests of these modules, and see docs/testing.md.
+
+Why cosmic-ray and not mutmut: mutmut 3 switches mutants at run time through trampolines and
+therefore skips every decorated function — every ``@njit`` kernel, which is where the safety
+checks live. cosmic-ray edits the file itself, so numba compiles the mutant like any change.
+
+The operator set is cut to mutants that model plausible slips: comparison boundaries and
+negations, + ↔ −, × ↔ ÷, and ↔ or, a dropped or added ``not``, a dropped unary minus,
+True ↔ False, numbers ± 1, loops that run zero times, break ↔ continue, a changed exception
+type. Swaps such as ``*`` → ``<<`` on floats (a TypeError at once) or ``==`` → ``is`` on
+numbers only add run time.
+
+``--sample N`` evaluates a fixed pseudo-random subset of N mutants per target, chosen from a
+hash of (file, operator, occurrence), so two commits are compared on the same mutants.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+PYTEST = f"{sys.executable} -m pytest -x -q -p no:cacheprovider -p no:randomly -o addopts="
+
+TARGETS = {
+    "safety": (["rtctl/safety"], "tests/safety", 240),
+    "timing": (["rtctl/timing"], "tests/timing", 180),
+    "busload": (["rtctl/busload.py"], "tests/can/test_busload.py", 180),
+    "protocols": (["drivers/protocols"], "tests/can/test_mit_codec.py tests/can/test_mit_drive.py "
+                  "tests/can/test_mit_can_driver.py tests/hil/test_mit_can_driver.py", 240),
+    "can_joints": (["drivers/can_joints.py"], "tests/can/test_mit_can_driver.py tests/hil/test_mit_can_driver.py "
+                   "tests/hil/test_can_config.py", 240),
+    "urdf": (["rtctl/model/urdf.py"], "tests/model/test_urdf.py", 180),
+    "control": (["rtctl/control"], "tests/control", 600),
+}
+
+_BOUNDARY = {("Lt", "LtE"), ("LtE", "Lt"), ("Gt", "GtE"), ("GtE", "Gt"), ("Eq", "NotEq"), ("NotEq", "Eq"),
+             ("Lt", "GtE"), ("GtE", "Lt"), ("Gt", "LtE"), ("LtE", "Gt"), ("Is", "IsNot"), ("IsNot", "Is")}
+_ARITHMETIC = {("Add", "Sub"), ("Sub", "Add"), ("Mul", "Div"), ("Div", "Mul"), ("FloorDiv", "Div"),
+               ("Div", "FloorDiv"), ("BitOr", "BitAnd"), ("BitAnd", "BitOr"), ("LShift", "RShift"),
+               ("RShift", "LShift"), ("Mod", "FloorDiv")}
+_PLAIN = {"AddNot", "ReplaceAndWithOr", "ReplaceOrWithAnd", "ReplaceTrueWithFalse", "ReplaceFalseWithTrue",
+          "ZeroIterationForLoop", "ReplaceBreakWithContinue", "ReplaceContinueWithBreak", "ExceptionReplacer",
+          "NumberReplacer", "ReplaceUnaryOperator_USub_UAdd", "ReplaceUnaryOperator_Delete_USub",
+          "ReplaceUnaryOperator_Delete_Not"}
+
+
+def plausible(operator: str) -> bool:
+    """Whether a cosmic-ray operator name (``core/ReplaceComparisonOperator_Lt_LtE``) is in the set."""
+    name = operator.rsplit("/", 1)[-1]
+    if name in _PLAIN:
+        return True
+    m = re.fullmatch(r"Replace(Comparison|Binary)Operator_(\w+?)_(\w+)", name)
+    if m is None:
+        return False
+    pair = (m.group(2), m.group(3))
+    return pair in (_BOUNDARY if m.group(1) == "Comparison" else _ARITHMETIC)
+
+
+def in_sample(key: str, sample: int | None, total: int) -> bool:
+    if sample is None or sample >= total:
+        return True
+    h = int.from_bytes(hashlib.sha256(key.encode()).digest()[:8], "big")
+    return h < sample / total * 2**64
+
+
+def export_tree(dest: Path, rev: str) -> None:
+    archive = subprocess.run(["git", "archive", rev], cwd=ROOT, capture_output=True, check=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
+
+
+def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD") -> dict:
+    from cosmic_ray.work_db import WorkDB, use_db
+    from cosmic_ray.work_item import WorkerOutcome, WorkResult
+
+    paths, tests, timeout = TARGETS[name]
+    tree = workdir / name
+    tree.mkdir(parents=True, exist_ok=True)
+    export_tree(tree, rev)
+    tests = " ".join(t for t in tests.split() if (tree / t).exists())  # (a test file that moved)
+    config, db = tree / "cosmic-ray.toml", tree / "session.sqlite"
+    modules = ", ".join(json.dumps(str(tree / p)) for p in paths)
+    config.write_text(f'[cosmic-ray]\nmodule-path = [{modules}]\ntimeout = {float(timeout)}\nexcluded-modules = []\n'
+                      f'test-command = "{PYTEST} {tests}"\n\n[cosmic-ray.distributor]\nname = "local"\n')
+    env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tree / ".numba")}
+    cr = [sys.executable, "-m", "cosmic_ray.cli"]
+    subprocess.run([*cr, "init", config, db], cwd=tree, env=env, check=True, capture_output=True)
+    with use_db(str(db), WorkDB.Mode.open) as work_db:
+        items = list(work_db.pending_work_items)
+        keep = [i for i in items if all(plausible(m.operator_name) for m in i.mutations)]
+        chosen = {i.job_id for i in keep if in_sample(
+            "|".join(f"{Path(m.module_path).relative_to(tree)}:{m.operator_name}:{m.occurrence}" for m in i.mutations),
+            sample, len(keep))}
+        skipped = [i.job_id for i in items if i.job_id not in chosen]
+        work_db.set_multiple_results(skipped, WorkResult(output="not in the plausible set or the sample",
+                                                         worker_outcome=WorkerOutcome.SKIPPED))
+    print(f"{name}: {len(items)} mutants, {len(keep)} plausible, running {len(chosen)}", flush=True)
+    baseline = subprocess.run(PYTEST.split() + tests.split(), cwd=tree, env=env, capture_output=True, text=True)
+    if baseline.returncode != 0:
+        raise SystemExit(f"{name}: the tests fail without any mutant:\n{baseline.stdout[-3000:]}")
+    subprocess.run([*cr, "exec", config, db], cwd=tree, env=env, check=True)
+    return report(name, tree, db)
+
+
+def report(name: str, tree: Path, db: Path) -> dict:
+    from cosmic_ray.work_db import WorkDB, use_db
+    from cosmic_ray.work_item import TestOutcome, WorkerOutcome
+
+    survivors, killed, timeouts = [], 0, 0
+    with use_db(str(db), WorkDB.Mode.open) as work_db:
+        for item, result in work_db.completed_work_items:
+            if result.worker_outcome == WorkerOutcome.SKIPPED:
+                continue
+            if result.test_outcome == TestOutcome.SURVIVED:
+                m = item.mutations[0]
+                survivors.append({"file": str(Path(m.module_path).relative_to(tree)), "line": m.start_pos[0],
+                                  "operator": m.operator_name.rsplit("/", 1)[-1], "diff": result.diff})
+            elif result.worker_outcome == WorkerOutcome.ABNORMAL or "timeout" in (result.output or "").lower():
+                timeouts += 1
+            else:
+                killed += 1
+    total = len(survivors) + killed + timeouts
+    summary = {"target": name, "mutants": total, "killed": killed, "timeouts_or_crashes": timeouts,
+               "survived": len(survivors), "survival_rate": round(len(survivors) / total, 4) if total else None,
+               "survivors": sorted(survivors, key=lambda s: (s["file"], s["line"]))}
+    (tree / "report.json").write_text(json.dumps(summary, indent=1))
+    print(f"{name}: {len(survivors)} of {total} survived ({100 * (summary['survival_rate'] or 0):.1f} %); "
+          f"report: {tree / 'report.json'}", flush=True)
+    return summary
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("target", choices=[*TARGETS, "all"])
+    p.add_argument("--sample", type=int, default=None, help="evaluate this many mutants per target (default: all)")
+    p.add_argument("--workdir", type=Path, default=None, help="where the copies go (default: a new temp dir)")
+    p.add_argument("--rev", default="HEAD", help="the commit to test (default: HEAD)")
+    args = p.parse_args(argv)
+    workdir = args.workdir or Path(tempfile.mkdtemp(prefix="rtctl-mutation-"))
+    names = list(TARGETS) if args.target == "all" else [args.target]
+    results = [run_target(n, workdir, args.sample, args.rev) for n in names]
+    print(f"\n{'target':<12} {'mutants':>8} {'killed':>7} {'t/o':>5} {'survived':>9} {'rate':>7}")
+    for r in results:
+        rate = "" if r["survival_rate"] is None else f"{100 * r['survival_rate']:.1f} %"
+        print(f"{r['target']:<12} {r['mutants']:>8} {r['killed']:>7} {r['timeouts_or_crashes']:>5} "
+              f"{r['survived']:>9} {rate:>7}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
