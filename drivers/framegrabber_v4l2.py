@@ -7,7 +7,7 @@ interface does in hardware, so the loop sees the same frames from either:
 keeps the window and the field's lines, applies offset, gain and levels and packs the words.
 A "field" is the field's lines of a captured frame (and "fields" alternates them), at the
 card's frame rate. Capture times are the card's buffer timestamps (CLOCK_MONOTONIC), put on
-the loop's clock by their age; the sequence number is the card's.
+the loop's clock (:class:`rtctl.hal.framegrabber.LoopClock`); the sequence number is the card's.
 
 Options (``backend = "v4l2"``): ``device`` (default ``/dev/video0``), ``pixel_format``
 ("GREY" or "YUYV"), ``capture_size`` ([width, height], default [720, 576], PAL), and
@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from rtctl.errors import HardwareError
-from rtctl.hal.framegrabber import Frame, FrameGrabber, GrabberSettings
+from rtctl.hal.framegrabber import Frame, FrameGrabber, GrabberSettings, LoopClock
 from rtctl.vision.pixels import WORD_DTYPES, digitise, pack, unpack
 
 PIXEL_FORMATS = ("GREY", "YUYV")
@@ -64,6 +64,7 @@ class V4l2FrameGrabber(FrameGrabber):
         self._device = self._capture = None
         self._last_seq: int | None = None  # the card's sequence number of the last frame
         self._parity = 0
+        self._clock = LoopClock()
 
     @classmethod
     def from_config(cls, device, context) -> "V4l2FrameGrabber":
@@ -128,7 +129,7 @@ class V4l2FrameGrabber(FrameGrabber):
         words = self._words[self.frames % 2]
         self._digitiser(np.ascontiguousarray(picture), field, words)
         capture_ns = buff.timestamp.secs * 1_000_000_000 + buff.timestamp.usecs * 1000
-        self._latest = Frame(seq, t - (time.monotonic_ns() - capture_ns) * 1e-9, field, s, words, unpack)
+        self._latest = Frame(seq, self._clock.to_loop(t, time.monotonic_ns(), capture_ns), field, s, words, unpack)
         return True
 
     def _on_close(self) -> None:

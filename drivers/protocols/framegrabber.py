@@ -31,7 +31,7 @@ from numba import njit, types
 from numba.extending import intrinsic
 
 from rtctl.errors import ProtocolError
-from rtctl.hal.framegrabber import FIELD_PERIOD_S, MEMORY_BYTES, SCANS, Frame, GrabberSettings
+from rtctl.hal.framegrabber import FIELD_PERIOD_S, MEMORY_BYTES, SCANS, Frame, GrabberSettings, LoopClock
 from rtctl.vision.pixels import unpack
 
 MAGIC = b"RTCTLFG1"
@@ -193,6 +193,7 @@ class HostPort:
         self._settings: dict[int, GrabberSettings] = {}  # register generation → settings (few)
         self._frames: list[Frame | None] = [None] * memory.n_slots  # one per slot, reused
         self._gens = [-1] * memory.n_slots  # the generation each slot's frame view was made for
+        self.clock = LoopClock()
         self.start = int(memory.writer[W_WRITTEN])  # frames before we looked are not dropped
         r = memory.reader
         r[[H_CLAIM, H_HOLD]] = -1
@@ -217,8 +218,9 @@ class HostPort:
 
     def take(self, t: float, now_ns: int) -> Frame | None:
         """The newest frame if it is new, now held (its words a zero-copy view), else None.
-        Its capture time is put on the loop's clock: the device's own (lock-step), or ``t``
-        minus the frame's age on CLOCK_MONOTONIC (``now_ns``)."""
+        Its capture time is put on the loop's clock: the device's own (lock-step), or its
+        CLOCK_MONOTONIC stamp through :class:`~rtctl.hal.framegrabber.LoopClock` (``now_ns``:
+        CLOCK_MONOTONIC at this read of tick time ``t``)."""
         slot = self.claim()
         if slot < 0:
             return None
@@ -228,7 +230,7 @@ class HostPort:
         if settings is None:
             settings = self._settings[gen] = decode(h[F_REGS:])
         capture_ns = int(h[F_CAPTURE])
-        capture = capture_ns * 1e-9 if self.m.clock == CLOCK_LOOP else t - (now_ns - capture_ns) * 1e-9
+        capture = capture_ns * 1e-9 if self.m.clock == CLOCK_LOOP else self.clock.to_loop(t, now_ns, capture_ns)
         frame = self._frames[slot]
         if frame is None or self._gens[slot] != gen:
             frame = self._frames[slot] = Frame(0, 0.0, "frame", settings, self.m.words(slot, settings), unpack)

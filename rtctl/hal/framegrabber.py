@@ -148,6 +148,22 @@ def _int(key: str, v) -> None:
         raise SettingsError(key, f"an integer, got {v!r}")
 
 
+class LoopClock:
+    """A device's CLOCK_MONOTONIC stamps on the loop's clock. The offset between the two is
+    the smallest difference seen at a read (monotonic now − loop time t): a read can be late
+    for its tick, never early, so the smallest is the truest, and one late read does not move
+    every later stamp. (The loop's clock runs with CLOCK_MONOTONIC and never jumps back.)"""
+
+    def __init__(self):
+        self.offset_ns = 2 ** 62
+
+    def to_loop(self, t: float, now_ns: int, stamp_ns: int) -> float:
+        offset = now_ns - round(t * 1e9)
+        if offset < self.offset_ns:
+            self.offset_ns = offset
+        return (stamp_ns - self.offset_ns) * 1e-9
+
+
 class Frame:
     """One image as the device delivered it.
 

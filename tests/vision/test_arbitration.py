@@ -124,7 +124,18 @@ def test_nothing_new_is_none_and_the_held_frame_stays():
     assert host.take(0.0, 0) is None
     slot = dev.reserve()
     dev.publish(slot, 123, "even", gen, regs, 0)
-    frame = host.take(1.0, 0)
+    frame = host.take(1.0, 2_000_000_000)
     assert (frame.seq, frame.field, frame.settings) == (1, "even", SETTINGS)
-    assert frame.capture_time == pytest.approx(1.0 - (0 - 123) * 1e-9)  # CLOCK_MONOTONIC: t minus the age
+    # CLOCK_MONOTONIC: loop time 1 s was monotonic 2 s at this read, so 123 ns is loop −1 s + 123 ns
+    assert frame.capture_time == pytest.approx(-1.0 + 123e-9)
     assert host.take(1.0, 0) is None and memory.reader[H_HOLD] == slot
+
+
+def test_loop_clock_takes_the_earliest_read():
+    from rtctl.hal.framegrabber import LoopClock
+
+    clock = LoopClock()
+    # loop time t read at monotonic now: 5 ms late, then on time, then 2 ms late
+    assert clock.to_loop(1.000, 10_005_000_000, 9_990_000_000) == pytest.approx(0.985)
+    assert clock.to_loop(1.001, 10_001_000_000, 9_990_000_000) == pytest.approx(0.990)
+    assert clock.to_loop(1.002, 10_004_000_000, 9_990_000_000) == pytest.approx(0.990)  # a late read moves nothing
