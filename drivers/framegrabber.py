@@ -60,6 +60,7 @@ class ShmFrameGrabber(FrameGrabber):
         self.shm_name = shm_name
         self._shm: shared_memory.SharedMemory | None = None
         self.host: HostPort | None = None
+        self._device_status: dict = {}  # the device's last status, kept when closing
 
     @classmethod
     def from_config(cls, device, context):
@@ -103,6 +104,7 @@ class ShmFrameGrabber(FrameGrabber):
 
     def _on_close(self) -> None:
         if self.host is not None:
+            self._device_status = self.host.device_status()
             self.host.release()
         self._release()
 
@@ -116,7 +118,5 @@ class ShmFrameGrabber(FrameGrabber):
             self._shm = None
 
     def diagnostics(self) -> dict:
-        d = super().diagnostics()
-        if self.host is not None:
-            d["device"] = self.host.device_status()
-        return {**d, "shm": self.shm_name}
+        device = self.host.device_status() if self.host is not None else self._device_status
+        return {**super().diagnostics(), "device": device, "shm": self.shm_name}

@@ -12,6 +12,8 @@ image when its last field ends: a field 20 ms after it was sampled, a frame 40 m
 simulator) it is called every tick with the loop's time, and the work of a field is spread
 over the ticks it spans, band by band, as the hardware scans it line by line; free-running
 (``hil-sim``) it is called at each field boundary on CLOCK_MONOTONIC and draws a field at once.
+A thread wakes late (and waits for the interpreter lock behind the CAN server's): the
+free-running camera stamps an image with the moment it actually took the robot's pose.
 """
 from __future__ import annotations
 
@@ -46,11 +48,12 @@ class _Image:
 
 
 class CameraSim:
-    def __init__(self, scene, model, memory, q_source, *, ticks_per_field: int = 1, epoch_ns: int = 0):
+    def __init__(self, scene, model, memory, q_source, *, ticks_per_field: int = 1, epoch_ns: int = 0, clock=None):
         self.port = DevicePort(memory)
         self.memory = memory
         self.renderer = Renderer(scene, model)
         self.q_source = q_source  # () → the robot's joint positions now
+        self.clock = clock  # () → now (ns) when the pose is taken late (free-running); None: on the boundary
         self.spread = ticks_per_field > 1  # lock-step: pose at a field's first tick, draw at the others
         self.bands = max(1, ticks_per_field - 1)
         self.epoch_ns = epoch_ns
@@ -122,9 +125,12 @@ class CameraSim:
             if slot < 0:
                 return
             fields = ("odd", "even") if s.scan == "frame" else (parity,)
-            self.image = _Image(slot, s, self.gen, self.regs, fields, self.epoch_ns + k * FIELD_NS,
-                                self.memory.words(slot, s), self._analog, self.bands)
-        self.renderer.freeze(self.q_source(), self.image.settings.density, k)
+            self.image = _Image(slot, s, self.gen, self.regs, fields, 0, self.memory.words(slot, s), self._analog,
+                                self.bands)
+        q = self.q_source()
+        if self.image.index == 0:  # the image's capture time: when its (first) field's pose was taken
+            self.image.capture_ns = self.epoch_ns + k * FIELD_NS if self.clock is None else self.clock()
+        self.renderer.freeze(q, self.image.settings.density, k)
 
     def _apply_registers(self) -> None:
         got = self.port.registers()

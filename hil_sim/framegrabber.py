@@ -95,7 +95,8 @@ class FreeRunningCamera:
         if memory.clock != CLOCK_MONOTONIC:
             raise ValueError("a free-running camera stamps its fields on CLOCK_MONOTONIC")
         epoch = time.monotonic_ns()
-        self.camera = CameraSim(scene, model, memory, q_source, epoch_ns=epoch - epoch % FIELD_NS)
+        self.camera = CameraSim(scene, model, memory, q_source, epoch_ns=epoch - epoch % FIELD_NS,
+                                clock=time.monotonic_ns)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="camera", daemon=True)
 
