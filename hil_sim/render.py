@@ -109,12 +109,15 @@ class Renderer:
         self.scene, self.model = scene, model
         n = model.nq
         self.tool_in_last = (model.flange @ model.tool)[:, 3]  # the tool point in the last body
-        # link k: parent origin (or the base) → origin k; then → tool; then the pedestal
-        self.ends = np.zeros((n + 2, 2, 3))
-        self.ends[-1, 1, 2] = -scene.pedestal
+        # points: the base, the body origins, the tool point, the pedestal's foot; segments
+        # between them: each body from its parent's origin (or the base), the tool, the pedestal
+        self.points = np.zeros((n + 3, 3))
+        self.points[-1, 2] = -scene.pedestal
+        self.a = np.array([p + 1 if p >= 0 else 0 for p in model.parent] + [n, 0])
+        self.b = np.array(list(range(1, n + 1)) + [n + 1, n + 2])
         self.thickness = np.full(n + 2, scene.link_radius)
         self.thickness[-1] = 2 * scene.link_radius if scene.pedestal > 0 else np.nan
-        self.seg = np.zeros((n + 3, 4))  # the links far to near, then the marker
+        self.seg = np.zeros((n + 3, 4))  # the segments far to near, then the marker
         self.radius = np.zeros(n + 3)
         self.value = np.full(n + 3, scene.link_level)
         self.value[-1] = scene.marker_level
@@ -124,30 +127,27 @@ class Renderer:
         self.noise_at = 0
 
     def freeze(self, q, density: int, field: int = 0) -> None:
-        """Project the robot at ``q`` onto the density grid (links far to near, marker last)."""
-        model, scene, cam, ends = self.model, self.scene, self.scene.camera, self.ends
-        poses = kinematics.link_poses(model, q)
-        for k in range(model.nq):
-            parent = model.parent[k]
-            ends[k, 0] = poses[parent, :3, 3] if parent >= 0 else 0.0
-            ends[k, 1] = poses[k, :3, 3]
-        n = model.nq
-        ends[n, 0] = poses[-1, :3, 3]
-        ends[n, 1] = (poses[-1] @ self.tool_in_last)[:3]
-        tool = ends[n, 1]
-        depth = cam.to_camera(ends.mean(axis=1))[:, 2]
-        uv = cam.to_grid(cam.project(ends), density).reshape(-1, 4)
-        px = cam.focal_px * density / 512  # focal length in grid pixels
-        order = np.argsort(-depth)  # painter's algorithm: far first
-        self.seg[:-1] = uv[order]
-        with np.errstate(divide="ignore"):
-            self.radius[:-1] = np.where((depth[order] > 0) & np.isfinite(uv[order]).all(axis=1),
-                                        px * self.thickness[order] / depth[order], np.nan)
-        self.marker_screen[:] = cam.project(tool)
-        marker = cam.to_grid(self.marker_screen, density)
-        self.seg[-1] = (marker[0], marker[1], marker[0], marker[1])
-        z = cam.to_camera(tool)[2]
-        self.radius[-1] = px * scene.marker_radius / z if np.isfinite(marker).all() else np.nan
+        """Project the robot at ``q`` onto the density grid (segments far to near, marker last)."""
+        n, scene, cam, pts = self.model.nq, self.scene, self.scene.camera, self.points
+        poses = kinematics.link_poses(self.model, q)
+        pts[1:n + 1] = poses[:, :3, 3]
+        pts[n + 1] = (poses[-1] @ self.tool_in_last)[:3]
+        in_camera = pts @ cam.R.T + cam.t
+        z = in_camera[:, 2]
+        scale = density / 512
+        px = cam.focal_px * scale  # focal length in grid pixels
+        with np.errstate(divide="ignore", invalid="ignore"):  # (a point behind the camera: NaN, not drawn)
+            grid = (cam.focal_px * in_camera[:, :2] / np.where(z > 0, z, np.nan)[:, None] + cam.principal
+                    - (1 / scale - 1) / 2) * scale
+            depth = 0.5 * (z[self.a] + z[self.b])
+            order = np.argsort(-depth)  # painter's algorithm: far first
+            a, b = self.a[order], self.b[order]
+            self.seg[:-1, :2], self.seg[:-1, 2:] = grid[a], grid[b]
+            self.radius[:-1] = px * self.thickness[order] / depth[order]
+            self.radius[:-1][~np.isfinite(self.seg[:-1]).all(axis=1)] = np.nan
+            self.marker_screen[:] = grid[n + 1] / scale + (1 / scale - 1) / 2
+            self.seg[-1, :2] = self.seg[-1, 2:] = grid[n + 1]
+            self.radius[-1] = px * scene.marker_radius / z[n + 1]  # NaN or ≤ 0 behind: not drawn
         self.noise_at = (field * 7919 * 64) % NOISE_SAMPLES
 
     def draw(self, img, rows: range, row0: int, row_step: int, col0: int, density: int) -> None:
