@@ -23,12 +23,11 @@ Options::
 from __future__ import annotations
 
 import sys
-import time
 from multiprocessing import shared_memory
 
-from drivers.protocols.framegrabber import GrabberMemory, HostPort, warm_up as warm_up_protocol
+from drivers.protocols.framegrabber import GrabberMemory, HostFrameGrabber, HostPort, warm_up as warm_up_protocol
 from rtctl.errors import HardwareError, ProtocolError
-from rtctl.hal.framegrabber import FrameGrabber, GrabberSettings
+from rtctl.hal.framegrabber import GrabberSettings
 from rtctl.tomltable import Table, expand_env
 from rtctl.vision.pixels import warm_up as warm_up_pixels
 
@@ -52,7 +51,7 @@ def settings_table(options: Table) -> Table:
     return options.table("settings", Table({}, options.file, options.key("settings")))
 
 
-class ShmFrameGrabber(FrameGrabber):
+class ShmFrameGrabber(HostFrameGrabber):
     """Frames from a device that shares its memory with this process."""
 
     def __init__(self, name: str, settings: GrabberSettings, shm_name: str):
@@ -90,17 +89,6 @@ class ShmFrameGrabber(FrameGrabber):
     def warm_up(self) -> None:
         warm_up_protocol()
         warm_up_pixels()
-
-    def _poll(self, t: float) -> bool:
-        frame = self.host.take(t, time.monotonic_ns())
-        if frame is None:
-            return False
-        self._latest = frame
-        self.frames, self.dropped = self.host.read, self.host.dropped
-        return True
-
-    def _send(self, settings: GrabberSettings, t: float) -> None:
-        self.host.program(settings)
 
     def _on_close(self) -> None:
         if self.host is not None:

@@ -20,9 +20,9 @@ import time
 
 import numpy as np
 
-from drivers.protocols.framegrabber import (CLOCK_LOOP, CLOCK_MONOTONIC, GrabberMemory, HostPort, buffer_bytes,
-                                            warm_up as warm_up_protocol)
-from rtctl.hal.framegrabber import FIELD_PERIOD_S, FrameGrabber, GrabberSettings
+from drivers.protocols.framegrabber import (CLOCK_LOOP, CLOCK_MONOTONIC, GrabberMemory, HostFrameGrabber, HostPort,
+                                            buffer_bytes, warm_up as warm_up_protocol)
+from rtctl.hal.framegrabber import FIELD_PERIOD_S, GrabberSettings
 from rtctl.tomltable import ENV_TEMPLATE, Table
 from rtctl.vision.pixels import warm_up as warm_up_pixels
 from hil_sim.camera import FIELD_NS, CameraSim
@@ -41,7 +41,7 @@ def read_options(options: Table) -> tuple[GrabberSettings, Scene]:
     return settings, scene
 
 
-class SimFrameGrabber(FrameGrabber):
+class SimFrameGrabber(HostFrameGrabber):
     """The camera in lock-step with the loop, read through the shared-buffer protocol."""
 
     def __init__(self, name: str, settings: GrabberSettings, camera: CameraSim, memory: GrabberMemory):
@@ -69,16 +69,8 @@ class SimFrameGrabber(FrameGrabber):
         self.camera.renderer.draw(np.zeros((2, 64), dtype=np.float32), range(0, 2), 0, 1, 0, 64)
 
     def _poll(self, t: float) -> bool:
-        self.camera.step(round(t * 1e9))
-        frame = self.host.take(t, 0)
-        if frame is None:
-            return False
-        self._latest = frame
-        self.frames, self.dropped = self.host.read, self.host.dropped
-        return True
-
-    def _send(self, settings: GrabberSettings, t: float) -> None:
-        self.host.program(settings)
+        self.camera.step(round(t * 1e9))  # the device first, in lock-step: then the host's end
+        return super()._poll(t)
 
     def diagnostics(self) -> dict:
         c = self.camera

@@ -26,12 +26,15 @@ device takes the newest frame and counts the ones it skipped: ``dropped = writte
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
 from rtctl.errors import ProtocolError
-from rtctl.hal.framegrabber import FIELD_PERIOD_S, MEMORY_BYTES, SCANS, Frame, GrabberSettings, LoopClock
+from rtctl.hal.framegrabber import (FIELD_PERIOD_S, MEMORY_BYTES, SCANS, Frame, FrameGrabber, GrabberSettings,
+                                   LoopClock)
 from rtctl.vision.pixels import unpack
 
 MAGIC = b"RTCTLFG1"
@@ -259,6 +262,24 @@ class HostPort:
         s = self.m.status
         return {"state": ("idle", "running", "done", "fault")[int(s[S_STATE])], "applied_gen": int(s[S_APPLIED]),
                 "settings_errors": int(s[S_ERROR]), "fields": int(s[S_FIELDS]), "written": self.written}
+
+
+class HostFrameGrabber(FrameGrabber):
+    """A framegrabber device read through this protocol: subclasses open ``self.host`` (a
+    :class:`HostPort`) when configured."""
+
+    host: HostPort | None = None
+
+    def _poll(self, t: float) -> bool:
+        frame = self.host.take(t, time.monotonic_ns())
+        if frame is None:
+            return False
+        self._latest = frame
+        self.frames, self.dropped = self.host.read, self.host.dropped
+        return True
+
+    def _send(self, settings: GrabberSettings, t: float) -> None:
+        self.host.program(settings)
 
 
 class DevicePort:
