@@ -1,5 +1,5 @@
 """The CAN bus of a joint device: python-can options from the run configuration, and the
-bus-load budget of every bus of a run (spec/can_joints.md §2–3).
+bus-load budget of every bus of a run (docs/can_joints.md).
 
 ::
 
@@ -23,8 +23,8 @@ from dataclasses import dataclass, field
 
 import can
 
-from rtctl.busload import DEFAULT_LIMIT, BusLoad, bus_load, check_bus_load, format_budget
-from rtctl.tomltable import Table, expand_env
+from rtctl.busload import DEFAULT_LIMIT, BusLoad, ProtocolFrames, bus_load, check_bus_load, format_budget
+from rtctl.tomltable import Deferred, Table, expand_env
 
 DEFAULT_BITRATE = 1_000_000
 BUDGET_KEY = "can_bus_budget"  # in DeviceContext.shared
@@ -39,26 +39,28 @@ class BusOptions:
     label: str
 
 def read_bus_options(t: Table) -> BusOptions:
-    """The ``bus`` sub-table of the device table ``t``, validated (nothing is opened)."""
+    """The ``bus`` sub-table of the device table ``t``, validated (nothing is opened). While
+    ``rtctl check`` defers unset variables, the values that name one are not checked here."""
     bt = t.table("bus")
     kwargs = {}
     for key in list(bt.data):
         value = bt.raw(key)
         kwargs[key] = expand_env(bt, key, value) if isinstance(value, str) else value
+    deferred = {k for k, v in kwargs.items() if isinstance(v, Deferred)}
     interface = kwargs.get("interface")
-    if interface not in can.interfaces.VALID_INTERFACES:
+    if "interface" not in deferred and interface not in can.interfaces.VALID_INTERFACES:
         raise bt.error("interface", f"a python-can interface ({', '.join(sorted(can.interfaces.VALID_INTERFACES))}), "
                                     f"got {interface!r}")
     channel = kwargs.get("channel")
-    if not isinstance(channel, (str, int)) or channel == "":
+    if "channel" not in deferred and (not isinstance(channel, (str, int)) or channel == ""):
         raise bt.error("channel", f"the channel to open (a name, a tty, or an index), got {channel!r}")
     host, port = kwargs.get("host"), kwargs.get("port")
     if interface == "socketcand":
-        if not isinstance(host, str) or not host:
+        if "host" not in deferred and (not isinstance(host, str) or not host):
             raise bt.error("host", f"the socketcand server's host, got {host!r}")
-        if not isinstance(port, int) or isinstance(port, bool) or not 0 < port < 65536:
+        if "port" not in deferred and (not isinstance(port, int) or isinstance(port, bool) or not 0 < port < 65536):
             raise bt.error("port", f"a TCP port 1…65535, got {port!r}")
-    bitrate = kwargs.get("bitrate")
+    bitrate = None if "bitrate" in deferred else kwargs.get("bitrate")
     if bitrate is not None and (not isinstance(bitrate, int) or isinstance(bitrate, bool) or bitrate <= 0):
         raise bt.error("bitrate", f"a positive integer (bit/s), got {bitrate!r}")
     label = str(channel)
@@ -72,11 +74,12 @@ class _Bus:
     protocol: str
     bitrate: int
     bitrate_assumed: bool
+    frames: ProtocolFrames | None = None  # None: the protocol's standard frames
     joints: int = 0
     devices: list = field(default_factory=list)
 
     def load(self, rate_hz: float) -> BusLoad:
-        return bus_load(self.label, self.protocol, self.joints, rate_hz, self.bitrate)
+        return bus_load(self.label, self.protocol, self.joints, rate_hz, self.bitrate, self.frames)
 
 
 class BusBudget:
@@ -96,11 +99,12 @@ class BusBudget:
         return budget, True
 
     def add(self, t: Table, device: str, bus: BusOptions, protocol: str, joints: int, rate_hz: float,
-            limit: float = DEFAULT_LIMIT) -> BusLoad:
+            limit: float = DEFAULT_LIMIT, frames: ProtocolFrames | None = None) -> BusLoad:
+        """``frames``: what one joint (and the bus) costs per tick, when not the protocol's standard."""
         entry = self.buses.get(bus.identity)
         if entry is None:
-            entry = self.buses[bus.identity] = _Bus(bus.label, protocol, bus.bitrate, bus.bitrate_assumed)
-        elif entry.protocol != protocol or entry.bitrate != bus.bitrate:
+            entry = self.buses[bus.identity] = _Bus(bus.label, protocol, bus.bitrate, bus.bitrate_assumed, frames)
+        elif entry.protocol != protocol or entry.bitrate != bus.bitrate or entry.frames != frames:
             raise t.error("protocol", f"the protocol and bitrate of the other devices on bus {bus.label} "
                                       f"({entry.protocol}, {entry.bitrate} bit/s), got {protocol}, {bus.bitrate} bit/s")
         entry.joints += joints

@@ -1,4 +1,4 @@
-"""MIT-protocol CAN joint drives as one JointGroup per bus (driver ``mit_can``; spec/can_joints.md).
+"""MIT-protocol CAN joint drives as one JointGroup per bus (driver ``mit_can``; docs/can_joints.md).
 
 One device is one CAN bus; a robot on several buses is several devices (the budget still adds
 up devices that name the same bus). Options (the ``[[devices]]`` table; drive layout in
@@ -41,46 +41,36 @@ it is activated again.
 """
 from __future__ import annotations
 
-import socket
-import time
-
 import can
 import numpy as np
-import structlog
 
 from drivers.can_bus import BusBudget, read_bus_options
+from drivers.can_device import CanJointGroup
 from drivers.protocols import mit
 from drivers.protocols.mit import REPLY_EFFORT, REPLY_ERROR, REPLY_POSITION, REPLY_VELOCITY, Special
 from drivers.protocols.mit_layout import read_master_id, read_mit_joints, reply_keys
 from rtctl.busload import DEFAULT_LIMIT, PROTOCOLS
 from rtctl.errors import HardwareError
-from rtctl.hal import JointGroup, Lifecycle, Status
-
-log = structlog.get_logger("rtctl.can")
+from rtctl.hal import Lifecycle, Status
 
 
 EXIT_ATTEMPTS = 3  # a lost (or corrupted) answer to exit motor mode must not leave a motor on
 
 
-class MitCanJointGroup(JointGroup):
+class MitCanJointGroup(CanJointGroup):
     """The MIT drives of one CAN bus."""
-
-    # the ``bus`` options reader, for code that reaches this class through the driver registry
-    read_bus_options = staticmethod(read_bus_options)
 
     def __init__(self, name: str, joints, bus, *, master_id: int = mit.DEFAULT_MASTER_ID, period: float = 0.001,
                  reply_deadline: float = 0.6, stale_limit: int = 3, drive_timeout: float = 0.02,
                  exchange_timeout: float = 0.5, reconnect_timeout: float = 2.0, reconnect_interval: float = 0.05,
                  set_zero: bool = False):
-        super().__init__(name, [j.name for j in joints])
+        super().__init__(name, [j.name for j in joints], bus, drive_timeout=drive_timeout,
+                         reconnect_timeout=reconnect_timeout, reconnect_interval=reconnect_interval)
         n = len(joints)
-        self.joints, self.bus_options, self.master_id = tuple(joints), bus, master_id
+        self.joints, self.master_id = tuple(joints), master_id
         self.reply_timeout = reply_deadline * period
-        self.stale_limit, self.drive_timeout = stale_limit, drive_timeout
+        self.stale_limit = stale_limit
         self.exchange_timeout, self.set_zero_at_configure = exchange_timeout, set_zero
-        self.reconnect_timeout, self.reconnect_interval = reconnect_timeout, reconnect_interval
-        self.bus = None
-        self.budget: BusBudget | None = None  # set by from_config on the run's first CAN device
         self._models = [j.model for j in joints]
         self._row_of_key = [-1] * 256  # reply byte 0 → row
         for row, j in enumerate(joints):
@@ -98,22 +88,8 @@ class MitCanJointGroup(JointGroup):
             self._replies[:, c] for c in (REPLY_POSITION, REPLY_VELOCITY, REPLY_EFFORT, REPLY_ERROR))
         self._got = np.zeros(n, dtype=bool)  # a reply since the last read
         self._cycle = np.zeros(n, dtype=bool)  # a reply in the current collection
-        self._stale = np.zeros(n, dtype=np.int64)
-        self._zeros_i = np.zeros(n, dtype=np.int64)
         self._tmp = np.zeros(n)
         self._p, self._v, self._tau, self._zero = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
-        self._stamp = 0.0
-        self._t_loop = 0.0  # loop time of the last read/write (for events)
-        self._missing_since = np.full(n, np.nan)  # loop time of the first unanswered command in a row
-        self._nans = np.full(n, np.nan)
-        self._last_sent = -np.inf  # clock time of the last command (or enter motor mode) sent
-        self._drives_off: str | None = None  # why the drives must be assumed off (their watchdog)
-        self._lost_at: float | None = None  # monotonic time the bus was lost
-        self._next_attempt = 0.0
-        self.counters = {"cycles": 0, "missing_replies": 0, "malformed_replies": 0, "foreign_frames": 0,
-                         "error_frames": 0, "bus_errors": 0, "reconnects": 0}
-        self.events: list[dict] = []  # rare: bus lost / back, drives assumed off, stale fault
-        self._last_event: str | None = None  # so a fault state is reported once, not every tick
 
     # -- configuration -------------------------------------------------------------------
     @classmethod
@@ -154,10 +130,6 @@ class MitCanJointGroup(JointGroup):
         budget, first = BusBudget.of(context.shared)
         budget.add(t, name, bus, protocol, len(joints), 1.0 / context.period, limit)
         return budget if first else None
-
-    def bus_budget(self, rate_hz: float) -> list[str]:
-        """The CAN bus-load table for ``rtctl check`` (printed once, by the run's first CAN device)."""
-        return [] if self.budget is None else self.budget.lines(rate_hz)
 
     # -- lifecycle -----------------------------------------------------------------------
     def _on_configure(self) -> None:
@@ -238,14 +210,8 @@ class MitCanJointGroup(JointGroup):
         return Status.OK
 
     def _write(self, t: float) -> Status:
-        self._t_loop = t
-        if self.bus is None and not self._reconnect():
+        if not self._start_write(t, "watchdog: their motors are off"):
             return Status.ERROR
-        now = self._clock()
-        if now - self._last_sent > self.drive_timeout and self._drives_off is None:
-            self._drives_off = (f"no command for {1e3 * (now - self._last_sent):.0f} ms, longer than the drives' "
-                                f"{1e3 * self.drive_timeout:g} ms watchdog: their motors are off")
-            self._event("drives_off", self._drives_off)
         c, p, v, tau = self.command, self._p, self._v, self._tau
         if c.mode:  # impedance: the drive closes kp (p − q) + kd (v − q̇) + t
             np.subtract(c.q_des, self._offset, out=p)
@@ -264,38 +230,26 @@ class MitCanJointGroup(JointGroup):
             bus = self.bus
             for m in messages:
                 bus.send(m)
-            self._last_sent = now
+            self._last_sent = self._clock()
             self._after_send()
             missing = self._collect(self.reply_timeout)
         except Exception as e:
             return self._lost(e)
-        self.counters["cycles"] += 1
-        if missing:
-            self.counters["missing_replies"] += missing
-            np.copyto(self._missing_since, t, where=~self._cycle & np.isnan(self._missing_since))  # (rare path)
-        np.copyto(self._missing_since, self._nans, where=self._cycle)
-        self._stamp = t
-        return Status.DEACTIVATE if self._drives_off is not None else Status.OK
+        return self._end_write(t, missing, self._cycle)
 
     # -- frames --------------------------------------------------------------------------
     def _collect(self, timeout: float) -> int:
         """Receive until every drive answered or ``timeout`` s passed; returns how many did not."""
-        bus, cycle = self.bus, self._cycle
-        cycle.fill(False)
-        pending = len(cycle)
-        end = time.monotonic() + timeout
-        while pending:
-            remaining = end - time.monotonic()
-            msg = bus.recv(remaining if remaining > 0.0 else 0.0)
-            if msg is None:
-                if remaining <= 0.0:
-                    break
-                continue  # (slcan: a transmit acknowledgement reads as None)
-            row = self._take(msg)
-            if row >= 0 and not cycle[row]:
-                cycle[row] = True
-                pending -= 1
-        return pending
+        self._cycle.fill(False)
+        return self._receive(len(self._cycle), timeout, self._take_reply)
+
+    def _take_reply(self, msg) -> int:
+        """1 when ``msg`` is the first reply of a drive in this collection, else 0."""
+        row = self._take(msg)
+        if row >= 0 and not self._cycle[row]:
+            self._cycle[row] = True
+            return 1
+        return 0
 
     def _take(self, msg) -> int:
         """Decode one received frame into the reply table; its row, or −1 when ignored."""
@@ -341,75 +295,11 @@ class MitCanJointGroup(JointGroup):
                 f"{self.name}: drive(s) {', '.join(f'{i:#x}' for i in silent)} did not answer {what} within "
                 f"{self.exchange_timeout:g} s on {self.bus_options.label} (power, ids, bitrate, termination?)")
 
-    # -- the link ------------------------------------------------------------------------
-    def _open(self) -> None:
-        kw = self.bus_options.kwargs
-        try:
-            if kw["interface"] == "socketcand":
-                # python-can retries a refused connection for 10 s in a busy loop: look first
-                socket.create_connection((kw["host"], kw["port"]), timeout=0.2).close()
-            self.bus = can.Bus(**kw)
-        except Exception as e:
-            self.bus = None
-            raise HardwareError(f"{self.name}: cannot open CAN bus {self.bus_options.label} "
-                                f"({kw['interface']}): {type(e).__name__}: {e}") from e
-
-    def _close_bus(self) -> None:
-        bus, self.bus = self.bus, None
-        if bus is not None:
-            try:
-                bus.shutdown()
-            except Exception:
-                pass
-
-    def _lost(self, e: Exception) -> Status:
-        self.counters["bus_errors"] += 1
-        self.last_error = f"bus {self.bus_options.label}: {type(e).__name__}: {e}"
-        self._close_bus()
-        self._lost_at = time.monotonic()
-        self._next_attempt = self._lost_at + self.reconnect_interval
-        self._event("bus_lost", self.last_error)
-        return Status.ERROR
-
-    def _reconnect(self) -> bool:
-        now = time.monotonic()
-        if self._lost_at is None or now - self._lost_at > self.reconnect_timeout or now < self._next_attempt:
-            return False
-        self._next_attempt = now + self.reconnect_interval
-        try:
-            self._open()
-        except HardwareError as e:
-            self.last_error = str(e)
-            return False
-        self.counters["reconnects"] += 1
-        self._event("bus_back", f"reopened after {now - self._lost_at:.3f} s")
-        return True
-
-    # -- hooks and bookkeeping -------------------------------------------------------------
-    def _after_send(self) -> None:
-        """Called right after frames were sent (the embedded simulator answers here)."""
-
-    def _clock(self) -> float:
-        """The clock the drives' watchdogs run on."""
-        return time.monotonic()
-
+    # -- bookkeeping ---------------------------------------------------------------------
     def _stale_ids(self) -> str:
         return ", ".join(f"{j.drive_id:#x}" for j, k in zip(self.joints, self._stale) if k >= self.stale_limit)
 
-    def _event(self, kind: str, reason: str, **fields) -> None:
-        event = {"event": kind, "reason": reason, "t": self._t_loop, "clock": self._clock(), **fields}
-        self._last_event = kind
-        if len(self.events) < 100:
-            self.events.append(event)
-        log.warning(kind, device=self.name, **{k: v for k, v in event.items() if k != "event"})
-
-    def _report(self, kind: str, reason: str, **fields) -> None:
-        """A fault state's first tick: remember it as the last error and log it."""
-        self.last_error = reason
-        self._event(kind, reason, **fields)
-
     def diagnostics(self) -> dict:
         d = super().diagnostics()
-        d.update(bus=self.bus_options.label, counters=dict(self.counters), events=self.events[-20:],
-                 stale_ticks=dict(zip(self.joint_names, self._stale.tolist())))
+        d["stale_ticks"] = dict(zip(self.joint_names, self._stale.tolist()))
         return d

@@ -1,13 +1,15 @@
-"""Emulated MIT drives mounted on the simulated plant: what the embedded CAN simulator and
+"""Emulated drives mounted on the simulated plant: what the embedded CAN simulator and
 ``hil-sim`` put at the far end of the wire, built from the same drive layout the driver reads
-(:mod:`drivers.protocols.mit_layout`)."""
+(:mod:`drivers.protocols.mit_layout`, :mod:`drivers.protocols.cia402_layout`)."""
 from __future__ import annotations
 
 import dataclasses
 import math
 
+from drivers.protocols.cia402 import EDS
 from drivers.protocols.mit import DRIVE_MODELS
 from drivers.protocols.mit_layout import MitJoint
+from hil_sim.cia402_drive import Cia402Drive
 from hil_sim.mit_drive import MappedJointPort, MitDrive
 
 KATZ = DRIVE_MODELS["katz"]
@@ -17,6 +19,13 @@ def emulated_drives(joints, indices, plant, *, timeout_s: float = 0.020, master_
     """One MitDrive per joint of the layout, on the plant's joint ``indices[k]``."""
     return [MitDrive(j.drive_id, MappedJointPort(plant.q, plant.qd, plant.tau_cmd, int(i), j.direction, j.offset),
                      j.model, master_id=master_id, timeout_s=timeout_s)
+            for j, i in zip(joints, indices)]
+
+
+def emulated_cia402_drives(joints, indices, plant, *, eds=EDS) -> list[Cia402Drive]:
+    """One Cia402Drive per joint of the layout (its scaling, its EDS), on the plant's joint ``indices[k]``."""
+    return [Cia402Drive(j.node_id, MappedJointPort(plant.q, plant.qd, plant.tau_cmd, int(i), j.direction, j.offset),
+                        rated_torque=j.rated_torque, counts_per_rev=j.counts_per_rev, eds=eds)
             for j, i in zip(joints, indices)]
 
 

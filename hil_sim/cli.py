@@ -1,20 +1,24 @@
 """``hil-sim CONFIG``: the robot of a run configuration — plant and emulated MIT drives — in
-its own process, behind a real transport, for ``rtctl run`` to drive (DESIGN §2).
+its own process, behind a real transport, for ``rtctl run`` to drive (docs/operations.md, "Hardware in the loop").
 
     hil-sim configs/puma560_hil_socketcand.toml                    # transport from the config
     hil-sim CONFIG --transport socketcand [--host H] [--port N]     # default: the config's port; 0: a free one
     hil-sim CONFIG --transport slcan                                # one pty per bus
     hil-sim CONFIG --realtime-factor 1                              # free-running (default 0: lock-step)
     hil-sim CONFIG --fault silent:3@1000 --fault corrupt:2:0.02     # scripted faults (hil_sim.lockstep)
+    hil-sim configs/leg_hil.toml                                    # the leg board on a pty (--transport serial)
 
 Framegrabber devices (``kind = "framegrabber"``) get a free-running camera filming the plant at
 the PAL rate, writing into a shared memory created here (its name, when the device's ``shm``
 option names a ``${VAR}``, made unique and announced under ``env``).
 
-The drives are those of the configuration's ``mit_can`` devices (ids, models, mounting: the
-same layout the driver reads); devices naming the same bus options share a bus (a socketcand
-channel, or a pty). A configuration without ``mit_can`` devices (an embedded ``[sim]`` one)
-gets the embedded CAN simulator's drives on one bus ``can0``. Plant options: the ``[sim]``
+The drives are those of the configuration's ``mit_can`` and ``cia402`` devices (ids, models or
+EDS and scaling, mounting: the same layout the driver reads); devices naming the same bus
+options share a bus (a socketcand channel, or a pty), one protocol per bus. A configuration
+without CAN devices (an embedded ``[sim]`` one) gets the embedded CAN simulator's MIT drives on
+one bus ``can0``. The MIT drives' watchdog is their device's ``drive_timeout`` (20 ms by
+default; ``--drive-timeout-ms`` overrides it); a CiA 402 drive's RPDO deadline is what the
+driver configures (0x1400 sub 5). Plant options: the ``[sim]``
 table when there is one, else its defaults.
 
 Stdout, one JSON object per line: first where it listens, e.g.
@@ -23,39 +27,51 @@ Stdout, one JSON object per line: first where it listens, e.g.
 {"HIL_SIM_TTY": "/dev/pts/5"}}`` — ``env`` holds the variables the configuration's bus
 options name as ``${VAR}`` (set them for ``rtctl run``) — then events (motors on/off, faults),
 and on SIGTERM/SIGINT a last ``{"event": "exit", …}`` with every drive's state and counters.
+
+A configuration whose device is a ``leg_board`` gets the prosthetic leg instead: the leg plant
+(the ``[sim.leg]`` options if any) and the board's firmware behind a pty
+(:mod:`hil_sim.leg_serial`), announced as ``{"transport": "serial", "tty": …, "env":
+{"HIL_SIM_TTY": …}}``; faults ``silent:1@N`` (the board stops answering after N commands) and
+``drop@N`` (the pty closes).
 """
 from __future__ import annotations
 
 import argparse
-import json
 import signal
 import sys
 import threading
 from pathlib import Path
 
+from drivers.protocols.cia402_layout import read_cia402_joints, read_eds
 from drivers.protocols.mit_layout import read_master_id, read_mit_joints
-from hil_sim.can_rig import emulated_drives, sim_layout
+from hil_sim.can_rig import emulated_cia402_drives, emulated_drives, sim_layout
 from hil_sim.embedded import SimPlantHub
 from hil_sim.framegrabber import camera_servers
-from hil_sim.lockstep import HubDriveBus, PlantHub, ScriptedFault
+from hil_sim.lockstep import HubCia402Bus, HubDriveBus, PlantHub, ScriptedFault
 from rtctl.config import joint_indices
+from rtctl import jsonout
 from rtctl.errors import RtctlError
 from rtctl.timing.rt import RtSettings, apply_rt
 from rtctl.model import load_robot
 from rtctl.tomltable import ENV_TEMPLATE, Table, load_toml
 
 
+CAN_DRIVERS = ("mit_can", "cia402")
+
+
 def emit(event: dict) -> None:
-    print(json.dumps(event), flush=True)
+    print(jsonout.dumps(event), flush=True)
 
 
 class BusPlan:
     """One bus to serve: its drives' layout and how the configuration names it."""
 
-    def __init__(self, raw: dict, name: str):
-        self.raw, self.name = raw, name
-        self.layout: list = []  # (MitJoint, plant index)
+    def __init__(self, raw: dict, name: str, driver: str = "mit_can"):
+        self.raw, self.name, self.driver = raw, name, driver
+        self.layout: list = []  # (MitJoint or Cia402Joint, plant index)
         self.master_id = 0
+        self.drive_timeout = 0.02  # mit_can: the drives' watchdog (the device's drive_timeout)
+        self.eds = None  # cia402: the drives' EDS
 
 
 def plan(path: Path):
@@ -68,7 +84,8 @@ def plan(path: Path):
     sim = t.table("sim", None)
     buses: dict[tuple, BusPlan] = {}
     for d in t.tables("devices", []):
-        if d.str("driver", "") != "mit_can" or sim is not None:
+        driver = d.str("driver", "")
+        if driver not in CAN_DRIVERS or sim is not None:
             continue
         indices = joint_indices(d, "joints", model)
         raw = d.table("bus").data
@@ -77,9 +94,17 @@ def plan(path: Path):
         if bus is None:
             channel = str(raw.get("channel", f"can{len(buses)}"))
             names = ENV_TEMPLATE.findall(channel)  # a pty named by a variable: call the bus by it
-            bus = buses[key] = BusPlan(raw, names[0][0] if names else channel)
-        bus.master_id = read_master_id(d)
-        bus.layout += zip(read_mit_joints(d, [model.joint_names[i] for i in indices]), indices)
+            bus = buses[key] = BusPlan(raw, names[0][0] if names else channel, driver)
+        if bus.driver != driver:
+            raise d.error("driver", f"the protocol of the other devices on bus {bus.name} ({bus.driver}): one per bus")
+        joint_names = [model.joint_names[i] for i in indices]
+        if driver == "cia402":
+            bus.eds = read_eds(d)[0]
+            bus.layout += zip(read_cia402_joints(d, joint_names), indices)
+        else:
+            bus.master_id = read_master_id(d)
+            bus.drive_timeout = d.float("drive_timeout", 0.02, positive=True)
+            bus.layout += zip(read_mit_joints(d, joint_names), indices)
     if not buses:
         indices = tuple(range(model.nq))
         bus = buses[()] = BusPlan({"interface": "socketcand", "channel": "can0"}, "can0")
@@ -107,8 +132,12 @@ def build(args):
     buses = []
     for p in plans:
         joints, indices = zip(*p.layout)
-        drives = emulated_drives(joints, indices, plant, timeout_s=args.drive_timeout_ms / 1e3, master_id=p.master_id)
-        buses.append(HubDriveBus(drives, p.name, hub))
+        if p.driver == "cia402":
+            buses.append(HubCia402Bus(emulated_cia402_drives(joints, indices, plant, eds=p.eds), p.name, hub))
+        else:
+            timeout = p.drive_timeout if args.drive_timeout_ms is None else args.drive_timeout_ms / 1e3
+            drives = emulated_drives(joints, indices, plant, timeout_s=timeout, master_id=p.master_id)
+            buses.append(HubDriveBus(drives, p.name, hub))
     return hub, plans, buses
 
 
@@ -179,6 +208,38 @@ def _close_cameras(cameras) -> dict:
     return {"framegrabbers": counters} if cameras else {}
 
 
+def leg_board_device(path: Path):
+    """The configuration's ``leg_board`` device table, or None."""
+    for d in load_toml(path).tables("devices", []):
+        if d.data.get("driver") == "leg_board":
+            return d
+    return None
+
+
+def serve_leg(args, path: Path, device) -> int:
+    from hil_sim.leg_plant import LegParams, LegPlant
+    from hil_sim.leg_serial import LegBoardServer
+
+    t = load_toml(path)
+    loop = t.table("loop", None)
+    period = 1.0 / (loop.float("rate_hz", 1000.0, positive=True) if loop is not None else 1000.0)
+    sim = t.table("sim", None)
+    leg = sim.table("leg", Table({}, path, "sim.leg")) if sim is not None else Table({}, path, "sim.leg")
+    plant = LegPlant(LegParams.from_table(leg))
+    server = LegBoardServer(plant, period, args.realtime_factor, args.drive_timeout_ms / 1e3 * 2.5, emit)
+    server.faults = [ScriptedFault.parse(s) for s in args.fault]
+    port = device.data.get("port", "")
+    info = {"transport": "serial", "tty": server.path, "period": period,
+            "env": {name: server.path for name in env_names({"port": port}, "port")}}
+    _stop_on_signals(server.shutdown)
+    emit(info)
+    try:
+        server.serve_forever()
+    finally:
+        emit(server.summary())
+    return 0
+
+
 def _stop_on_signals(stop) -> None:
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop())
@@ -188,12 +249,15 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog="hil-sim", description=__doc__.split("\n\n")[0],
                                 epilog=__doc__.split("\n\n", 1)[1], formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("config", help="run configuration (TOML) whose robot and CAN devices to play")
-    p.add_argument("--transport", choices=("socketcand", "slcan"), help="default: the configuration's bus interface")
+    p.add_argument("--transport", choices=("socketcand", "slcan", "serial"),
+                   help="default: the configuration's bus interface (serial for a leg board)")
     p.add_argument("--host", default="127.0.0.1", help="socketcand: address to listen on (loopback)")
     p.add_argument("--port", type=int, help="socketcand: TCP port (default: the configuration's, else a free one)")
     p.add_argument("--realtime-factor", type=float, default=0.0, metavar="F",
                    help="0 (default): lock-step, one period per command set; F > 0: free-running at F × wall clock")
-    p.add_argument("--drive-timeout-ms", type=float, default=20.0, help="the drives' command watchdog")
+    p.add_argument("--drive-timeout-ms", type=float, default=None,
+                   help="the MIT drives' command watchdog (default: their device's drive_timeout, else 20 ms; "
+                        "a CiA 402 drive's deadline is configured by the driver)")
     p.add_argument("--fault", action="append", default=[], metavar="SPEC",
                    help="silent:ID | corrupt:ID:RATE | error:ID:CODE | drop, ID as N or BUS/N, optional @CYCLES")
     p.add_argument("--no-ack", action="store_true", help="slcan: do not acknowledge transmits (z/Z)")
@@ -206,6 +270,11 @@ def main(argv=None) -> int:
     try:
         for spec in args.fault:
             ScriptedFault.parse(spec)
+        leg = leg_board_device(Path(args.config))
+        if leg is not None or args.transport == "serial":
+            if leg is None:
+                raise RtctlError(f"{args.config}: --transport serial serves a leg board; no device has driver 'leg_board'")
+            return serve_leg(args, Path(args.config), leg)
         hub, plans, buses = build(args)
     except (RtctlError, ValueError) as e:
         print(f"hil-sim: {e}", file=sys.stderr)

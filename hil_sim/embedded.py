@@ -8,7 +8,8 @@ same causality as a real drive that answers each command with a fresh measuremen
 
 Options (the run configuration's ``[sim]`` table)::
 
-    substeps = 4                 # integrator substeps per period
+    substeps = 4                 # integrator steps per period
+    integrator = "euler"         # or "rk4" (classical Runge–Kutta; hil_sim.plant)
     friction = 1.0               # scale of the robot file's viscous + Coulomb friction
     armature = true              # reflected rotor inertia from the robot file
     plant = "robots/x.toml"      # another description as the true plant (default: the robot)
@@ -18,6 +19,7 @@ Options (the run configuration's ``[sim]`` table)::
     velocity_noise = 0.0         # std of white noise on measured velocity (rad/s)
     seed = 1
     transport = "direct"         # "can": through the MIT CAN driver and emulated drives (hil_sim.can_embedded)
+    [sim.leg]                    # the robot is the prosthetic leg: its board on the leg plant (hil_sim.leg)
 """
 from __future__ import annotations
 
@@ -58,7 +60,8 @@ class SimPlantHub:
             q0 = np.clip(np.zeros(model.nq), model.q_min, model.q_max)
         plant = Plant(true_model, substeps=sim.int("substeps", 4, min=1, max=1000),
                       friction_scale=sim.float("friction", 1.0, min=0.0),
-                      armature=sim.bool("armature", True), q0=q0)
+                      armature=sim.bool("armature", True), q0=q0,
+                      integrator=sim.str("integrator", "euler", choices=("euler", "rk4")))
         hub = cls(plant, period)
         hub.encoder_counts = sim.int("encoder_counts", 0, min=0)
         hub.velocity_noise = sim.float("velocity_noise", 0.0, min=0.0)
@@ -89,6 +92,10 @@ class SimJointGroup(JointGroup):
             from hil_sim.can_embedded import SimCanJointGroup
 
             return SimCanJointGroup.from_config(device, context)
+        if context.sim.has("leg"):  # the prosthetic leg: its board on the leg plant (hil_sim.leg)
+            from hil_sim.leg import EmbeddedLegBoard
+
+            return EmbeddedLegBoard.from_config(device, context)
         hub = context.shared.get("sim_hub")
         if hub is None:
             hub = SimPlantHub.from_options(context.sim, context.model, context.period, context.base_dir)

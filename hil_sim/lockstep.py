@@ -21,7 +21,8 @@ import time
 from dataclasses import asdict, dataclass
 from typing import Callable
 
-from drivers.protocols import mit
+from hil_sim.cia402_drive import Cia402DriveBus
+from hil_sim.drive_bus import DriveBus
 from hil_sim.mit_drive import MitDrive, MitDriveBus
 
 MAX_REPLAY_S = 0.1  # longest pause of the loop replayed for the plant (a stopped process: time jumps)
@@ -65,7 +66,7 @@ class PlantHub:
         self.plant, self.period, self.factor = plant, period, realtime_factor
         self.emit, self.clock = emit, clock
         self.lock = threading.RLock()  # slcan serves each bus from its own thread
-        self.buses: list["HubDriveBus"] = []
+        self.buses: list[HubBus] = []
         self.drives: list[tuple[str, MitDrive]] = []
         self.addressed: list[bool] = []
         self._pending = 0  # drives not yet commanded in this cycle
@@ -79,7 +80,7 @@ class PlantHub:
         self._first_set: float | None = None  # lock-step: arrival of the first command set
         self._periods = 0  # lock-step: periods the plant advanced
 
-    def add_bus(self, bus: "HubDriveBus") -> None:
+    def add_bus(self, bus: "HubBus") -> None:
         self.buses.append(bus)
         for d in bus.drives.values():
             self.drives.append((bus.name, d))
@@ -90,7 +91,7 @@ class PlantHub:
         if self.factor > 0 and len(self.buses) == 1:
             self._pace(bus)
 
-    def _pace(self, bus: MitDriveBus) -> None:
+    def _pace(self, bus: DriveBus) -> None:
         """Free-running: service the buses every period even when no frame comes."""
         def tick():
             bus.call_at(self.clock() + self.period / self.factor, tick)
@@ -129,7 +130,7 @@ class PlantHub:
         return due
 
     def advance(self, now: float) -> None:
-        """MitDriveBus.service's plant hook: watchdogs and laws now; free-running: the plant up to now."""
+        """DriveBus.service's plant hook: watchdogs and laws now; free-running: the plant up to now."""
         with self.lock:
             for _, d in self.drives:
                 d.update(now)
@@ -190,23 +191,38 @@ class PlantHub:
                             "counters": asdict(d.counters)} for bus, d in self.drives]}
 
 
-class HubDriveBus(MitDriveBus):
-    """A MitDriveBus whose plant is the hub's: it tells the hub which drives were commanded."""
+class HubBus:
+    """Mixed into a drive bus whose plant is the hub's: it tells the hub which drives a frame
+    commanded (the bus's ``commanded_by``)."""
 
-    def __init__(self, drives, name: str, hub: PlantHub):
-        super().__init__(drives, name=name, advance=hub.advance)
+    def _join(self, hub: PlantHub) -> None:
         self.hub = hub
         hub.add_bus(self)
-        self._index = {d.drive_id: k for k, (bus, d) in enumerate(hub.drives) if bus == name}
+        self._index = {d.drive_id: k for k, (bus, d) in enumerate(hub.drives) if bus == self.name}
 
     def receive(self, arbitration_id: int, data, now: float, out: list, is_extended: bool = False) -> None:
         with self.hub.lock:
             super().receive(arbitration_id, data, now, out, is_extended)
-            k = None if is_extended else self._index.get(arbitration_id)
-            if k is not None and len(data) == mit.COMMAND_LENGTH and not mit.is_special_prefix(data):
-                self.hub.commanded(k, now)
+            for drive_id in self.commanded_by(arbitration_id, data, is_extended):
+                self.hub.commanded(self._index[drive_id], now)
             self.hub.check(now)
 
     def service(self, now: float, out: list) -> None:
         with self.hub.lock:
             super().service(now, out)
+
+
+class HubDriveBus(HubBus, MitDriveBus):
+    """MIT drives on the hub's plant."""
+
+    def __init__(self, drives, name: str, hub: PlantHub):
+        MitDriveBus.__init__(self, drives, name=name, advance=hub.advance)
+        self._join(hub)
+
+
+class HubCia402Bus(HubBus, Cia402DriveBus):
+    """CiA 402 drives on the hub's plant (a SYNC commands them all)."""
+
+    def __init__(self, drives, name: str, hub: PlantHub):
+        Cia402DriveBus.__init__(self, drives, name=name, advance=hub.advance)
+        self._join(hub)

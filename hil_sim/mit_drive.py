@@ -14,8 +14,6 @@ the embedded simulator supplies the real multi-joint plant through the same port
 from __future__ import annotations
 
 import argparse
-import heapq
-import json
 import math
 import random
 import signal
@@ -29,6 +27,8 @@ import can
 
 from drivers.protocols import mit
 from drivers.protocols.mit import DRIVE_MODELS, KATZ, MitDriveModel, Special
+from rtctl import jsonout
+from hil_sim.drive_bus import DriveBus
 
 
 class JointPort(Protocol):
@@ -172,89 +172,30 @@ class MitDrive:
             self._motor_off()
 
 
-class MitDriveBus:
-    """The drives on one CAN bus, as frames in and frames out.
-
-    ``advance(now)`` (optional) brings the plant up to ``now``; :meth:`service` calls it. A
-    server answers each frame at once and calls ``service`` when :meth:`wants_service` says so:
-    once every drive had a frame since the last service (a full command cycle: the plant then
-    advances between cycles, not in the middle of one, which keeps the replies prompt), at a
-    watchdog or delayed-reply deadline, or ``max_staleness`` after an incomplete cycle.
-    """
+class MitDriveBus(DriveBus):
+    """The MIT drives on one CAN bus (see :class:`hil_sim.drive_bus.DriveBus`): a frame on a
+    drive's id is its command or special frame, answered on the drive's master id."""
 
     def __init__(self, drives, name: str = "can0", advance: Callable[[float], None] | None = None,
                  max_staleness: float = 0.001):
-        self.drives = {d.drive_id: d for d in drives}
-        self.max_staleness = max_staleness
-        self.unserviced = 0  # frames to drives since the last service
-        self._first_unserviced = 0.0
-        if len(self.drives) != len(drives):
-            raise ValueError("two drives share an id")
-        self.name, self.advance = name, advance
+        super().__init__(drives, name, advance, max_staleness)
         self.master_ids = {d.master_id for d in drives}
-        self.ignored = 0  # frames for nobody on this bus (other ids, extended ids)
-        self._delayed: list = []  # heap of (due, seq, arbitration_id, payload)
-        self._actions: list = []  # heap of (when, seq, action): scheduled fault injections
-        self._seq = 0
 
     def receive(self, arbitration_id: int, data, now: float, out: list, is_extended: bool = False) -> None:
-        """Handle one frame from the wire; append the (arbitration_id, payload) replies due now."""
         drive = None if is_extended else self.drives.get(arbitration_id)
         if drive is None:
             if arbitration_id not in self.master_ids or is_extended:
                 self.ignored += 1
             return
-        if self.unserviced == 0:
-            self._first_unserviced = now
-        self.unserviced += 1
+        self._addressed(now)
         reply = drive.receive(data, now)
-        if reply is None:
-            return
-        if drive.faults.delay_s > 0:
-            self._seq += 1
-            heapq.heappush(self._delayed, (now + drive.faults.delay_s, self._seq, drive.master_id, reply))
-        else:
-            out.append((drive.master_id, reply))
+        if reply is not None:
+            self._reply(drive, drive.master_id, reply, now, out)
 
-    def call_at(self, when: float, action: Callable[[], None]) -> None:
-        """Run ``action()`` at time ``when`` (on the clock the bus is given), from
-        :meth:`service`: e.g. ``bus.call_at(t0 + 2, lambda: setattr(drive.faults, "silent", True))``
-        or a server's ``drop_connections`` — faults scripted for HIL scenarios."""
-        self._seq += 1
-        heapq.heappush(self._actions, (when, self._seq, action))
-
-    def service(self, now: float, out: list) -> None:
-        """Advance the plant, run the watchdogs and due actions, append the delayed replies now due."""
-        self.unserviced = 0
-        while self._actions and self._actions[0][0] <= now:
-            heapq.heappop(self._actions)[2]()
-        if self.advance is not None:
-            self.advance(now)
-        else:
-            for d in self.drives.values():
-                d.update(now)
-        while self._delayed and self._delayed[0][0] <= now:
-            _, _, arbitration_id, payload = heapq.heappop(self._delayed)
-            out.append((arbitration_id, payload))
-
-    def next_deadline(self) -> float | None:
-        """When :meth:`service` must run next at the latest (a delayed reply, a scheduled
-        action, a watchdog, an incomplete cycle)."""
-        first = self._delayed[0][0] if self._delayed else math.inf
-        if self._actions:
-            first = min(first, self._actions[0][0])
-        if self.unserviced:
-            first = min(first, self._first_unserviced + self.max_staleness)
-        for d in self.drives.values():
-            if d.enabled and d.last_command_time + d.timeout_s < first:
-                first = d.last_command_time + d.timeout_s
-        return None if first == math.inf else first
-
-    def wants_service(self, now: float) -> bool:
-        if self.unserviced >= len(self.drives):
-            return True
-        deadline = self.next_deadline()
-        return deadline is not None and deadline <= now
+    def commanded_by(self, arbitration_id: int, data, is_extended: bool = False) -> tuple:
+        if is_extended or arbitration_id not in self.drives:
+            return ()
+        return (arbitration_id,) if len(data) == mit.COMMAND_LENGTH and not mit.is_special_prefix(data) else ()
 
 
 class MappedJointPort:
@@ -347,7 +288,7 @@ def announce(server) -> None:
     SIGTERM/SIGINT stop it cleanly."""
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: server.shutdown())
-    print(json.dumps(server.info()), flush=True)
+    print(jsonout.dumps(server.info()), flush=True)
     sys.stdout.flush()
 
 

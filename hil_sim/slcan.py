@@ -24,28 +24,22 @@ from __future__ import annotations
 import argparse
 import os
 import select
-import socket
 import time
-import tty
 
 from hil_sim.mit_drive import MitDriveBus, add_stand_in_arguments, announce, stand_in_bus_from_args
+from hil_sim.pty import PtyEndpoint
 
 OK, BELL = b"\r", b"\a"
 _MAX_LINE = 64  # longest legal command is ~27 characters
 _MAX_QUEUED = 65536  # bytes waiting for the host before new frames are dropped
 
 
-class SlcanAdapter:
+class SlcanAdapter(PtyEndpoint):
     """Serves one ``MitDriveBus`` on a new pty; ``path`` is the device python-can opens."""
 
     def __init__(self, bus: MitDriveBus, ack_transmit: bool = True, clock=time.monotonic):
+        super().__init__()
         self.bus, self.ack_transmit, self.clock = bus, ack_transmit, clock
-        self._master, self._slave = os.openpty()
-        tty.setraw(self._slave)  # no echo, no CR→NL: the bytes go through untouched
-        os.set_blocking(self._master, False)
-        self.path = os.ttyname(self._slave)  # we keep the slave open so the master never sees EIO
-        self._wake_r, self._wake_w = socket.socketpair()  # a closed socket object never writes to a reused fd
-        self._stop = False
         self._line = bytearray()
         self._out = bytearray()
         self.is_open = False
@@ -78,26 +72,6 @@ class SlcanAdapter:
                 self._flush()
         finally:
             self.close()
-
-    def _wake(self) -> None:
-        try:
-            self._wake_w.send(b"x")
-        except OSError:  # already closed: the loop has ended
-            pass
-
-    def shutdown(self) -> None:
-        self._stop = True
-        self._wake()
-
-    def close(self) -> None:
-        for fd in (self._master, self._slave):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
-        self._master = self._slave = -1
-        self._wake_r.close()
-        self._wake_w.close()
 
     # -- host → adapter -------------------------------------------------------------------
     def _feed(self, data: bytes, now: float, out: list) -> None:

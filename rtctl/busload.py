@@ -1,4 +1,4 @@
-"""CAN bus load: the budget every bus must fit at the loop rate (spec/can_joints.md §3).
+"""CAN bus load: the budget every bus must fit at the loop rate (docs/can_joints.md).
 
 Pure arithmetic on frame sizes, so ``rtctl check`` can print it without importing any driver.
 A standard (11-bit) classic CAN frame with n data bytes occupies at worst, with every possible
@@ -38,9 +38,10 @@ PROTOCOLS = {
     # one 8-byte command and one reply per joint per tick (6 bytes; 8 for the temperature/error variants)
     "mit": ProtocolFrames(per_joint=(8, 6)),
     "mit8": ProtocolFrames(per_joint=(8, 8)),
-    # CiA 402 CST: RPDO1 (controlword + torque, 4 B) and TPDO1 (statusword + position + torque, 8 B)
-    # per joint, one SYNC (0 B) per bus
-    "cia402": ProtocolFrames(per_joint=(4, 8), per_bus=(0,)),
+    # CiA 402 CST, the shipped EDS's PDO set: RPDO1 (controlword + torque, 4 B), TPDO1 (statusword +
+    # position + torque, 8 B), TPDO2 (velocity, 4 B) per joint, one SYNC (0 B) per bus; a drive
+    # whose EDS maps them otherwise brings its own frames (bus_load's ``frames``)
+    "cia402": ProtocolFrames(per_joint=(4, 8, 4), per_bus=(0,)),
 }
 
 
@@ -54,6 +55,7 @@ class BusLoad:
     rate_hz: float
     bitrate: int
     bits_per_tick: int
+    frames: ProtocolFrames
 
     @property
     def bits_per_second(self) -> float:
@@ -73,7 +75,7 @@ class BusLoad:
 
     def max_joints(self, limit: float = DEFAULT_LIMIT) -> int:
         """Most joints of this protocol one such bus carries at this rate within the limit."""
-        frames = PROTOCOLS[self.protocol]
+        frames = self.frames
         per_bus = frames.bits_per_tick(0)
         per_joint = frames.bits_per_tick(1) - per_bus
         return max(0, math.floor((limit * self.bitrate / self.rate_hz - per_bus) / per_joint))
@@ -86,13 +88,17 @@ class BusLoad:
         )
 
 
-def bus_load(bus: str, protocol: str, joints: int, rate_hz: float, bitrate: int) -> BusLoad:
-    """The worst-case load of ``joints`` joints speaking ``protocol`` (a key of PROTOCOLS)."""
-    if protocol not in PROTOCOLS:
-        raise ValueError(f"unknown protocol {protocol!r}; known: {', '.join(PROTOCOLS)}")
+def bus_load(bus: str, protocol: str, joints: int, rate_hz: float, bitrate: int,
+             frames: ProtocolFrames | None = None) -> BusLoad:
+    """The worst-case load of ``joints`` joints speaking ``protocol`` (a key of PROTOCOLS), or
+    exchanging ``frames`` when given (a configured PDO set)."""
+    if frames is None:
+        if protocol not in PROTOCOLS:
+            raise ValueError(f"unknown protocol {protocol!r}; known: {', '.join(PROTOCOLS)}")
+        frames = PROTOCOLS[protocol]
     if rate_hz <= 0 or bitrate <= 0 or joints < 0:
         raise ValueError("rate and bitrate must be positive, joints non-negative")
-    return BusLoad(bus, protocol, joints, float(rate_hz), int(bitrate), PROTOCOLS[protocol].bits_per_tick(joints))
+    return BusLoad(bus, protocol, joints, float(rate_hz), int(bitrate), frames.bits_per_tick(joints), frames)
 
 
 def check_bus_load(load: BusLoad, file, key_path: str, limit: float = DEFAULT_LIMIT) -> BusLoad:

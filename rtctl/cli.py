@@ -12,7 +12,7 @@ Exit codes (documented for systemd units and scripts):
 from __future__ import annotations
 
 import argparse
-import json
+import os
 import sys
 
 from rtctl.errors import (ConfigError, ControlSocketError, HardwareError, RealtimeError, RtctlError,
@@ -23,16 +23,26 @@ EXIT_OK, EXIT_BUG, EXIT_CONFIG, EXIT_FAULT, EXIT_HARDWARE, EXIT_RT, EXIT_SOCKET 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
-        prog="rtctl", description="Real-time control runtime for robot joints.",
+        prog="rtctl", description="Real-time control runtime for robot joints. Documentation: docs/index.md "
+                                 "in the source tree.",
         epilog=__doc__.split("\n", 2)[2], formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    add_parser = sub.add_parser
+
+    def add_explained(name, **kwargs):  # every subcommand's own --help starts with what it does
+        kwargs.setdefault("description", kwargs.get("help"))
+        return add_parser(name, **kwargs)
+
+    sub.add_parser = add_explained
 
     run = sub.add_parser("run", help="run the control loop in the foreground (the daemon)",
                          description="Run the fixed-rate control loop on the devices of CONFIG until "
-                                     "the duration ends, `rtctl stop`, SIGTERM or SIGINT. JSON logs on stdout.")
+                                     "the duration ends, `rtctl stop`, SIGTERM or SIGINT. Logs go to stdout: "
+                                     "readable lines and a summary table on a terminal, one strict JSON object "
+                                     "per line otherwise (systemd/journald) or with --log-format json.")
     run.add_argument("config", help="run configuration (TOML), e.g. configs/puma560_sim.toml")
     run.add_argument("--sim", action="store_true", help="replace the joint devices by the embedded simulator")
-    run.add_argument("--duration", type=float, metavar="S", help="stop after S seconds of loop time")
+    run.add_argument("--duration", type=float, metavar="S", help="stop after S seconds of loop time (default: run until `rtctl stop`, SIGTERM or Ctrl-C)")
     run.add_argument("--realtime-factor", type=float, metavar="F",
                      help="simulated devices only: 0 = as fast as possible (reproducible), 1 = wall clock")
     run.add_argument("--telemetry", metavar="PATH", help="record telemetry (msgpack) to PATH")
@@ -40,8 +50,11 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--socket", metavar="PATH", help="control socket path (default from config)")
     run.add_argument("--enforce-rt", action="store_true", help="refuse to start unless every real-time knob applies")
     run.add_argument("--log-level", default="info", choices=("debug", "info", "warning", "error"))
+    run.add_argument("--log-format", default="auto", choices=("auto", "console", "json"),
+                     help="auto (default): console on a terminal, json otherwise")
 
-    check = sub.add_parser("check", help="validate a run configuration and print the bus-load budget")
+    check = sub.add_parser("check", help="validate a run configuration; print the bus-load budget and the environment "
+                                            "variables a run reads")
     check.add_argument("config")
     check.add_argument("--sim", action="store_true", help="check as `run --sim` would")
 
@@ -61,7 +74,8 @@ def _parser() -> argparse.ArgumentParser:
     model.add_argument("--q", type=float, nargs="+", metavar="Q", help="configuration (rad/m; default home = 0)")
 
     for name, text in (("status", "print the running daemon's status"), ("stop", "stop the daemon cleanly"),
-                       ("estop", "emergency stop: controlled stop, then drives off"),
+                       ("estop", "emergency stop of the robot: damping, then drives off; the daemon stays up "
+                                 "(`reset` re-enables the drives, `stop` ends it)"),
                        ("reset", "clear latched faults whose cause is gone")):
         s = sub.add_parser(name, help=text)
         s.add_argument("--socket", metavar="PATH", help="control socket path (default: $XDG_RUNTIME_DIR/rtctl.sock)")
@@ -75,6 +89,29 @@ def _parser() -> argparse.ArgumentParser:
     plot.add_argument("path")
     plot.add_argument("-o", "--output", required=True, help="PNG to write")
 
+    export = sub.add_parser("export", help="convert a telemetry file (needs the `mcap` extra for --mcap)",
+                            description="Write a recorded run as MCAP with JSON-schema channels (joint states, "
+                                        "commands, controller internals, timing, events) for Foxglove or PlotJuggler.")
+    export.add_argument("path", help="telemetry file written by `rtctl run` (msgpack)")
+    export.add_argument("--mcap", required=True, metavar="OUT", help="MCAP file to write")
+    ident = sub.add_parser("identify", help="fit the ARX model to a recorded run (adaptive Kalman filter)",
+                           description="Run the Sage–Husa filter of the arma_gmv controller over a telemetry "
+                                       "file (y = measured position q, u = commanded torque tau) and print, per "
+                                       "joint, θ̂ = [a1 … a_na, b0 … b_nb], r̂, R̂ and the RMS one-step "
+                                       "prediction error ε.")
+    ident.add_argument("path", help="telemetry file (rtctl run --telemetry)")
+    ident.add_argument("--joints", nargs="+", metavar="NAME", help="joint names (default: all; commas allowed)")
+    ident.add_argument("--period", type=float, metavar="S", help="sample time in s (default: every recorded tick)")
+    ident.add_argument("--na", type=int, default=2, help="output order (default 2)")
+    ident.add_argument("--nb", type=int, default=2, help="input order: b0 … b_nb (default 2)")
+    ident.add_argument("--d", type=int, default=1, help="dead time in samples (default 1)")
+    ident.add_argument("--lam", type=float, default=0.98, help="forgetting factor λ of the noise statistics, in (0, 1)")
+    ident.add_argument("--adapt", nargs="*", default=["r", "R"], choices=("r", "R", "q", "Q"),
+                       help="switched-on adaptations (default: r R)")
+    ident.add_argument("--p0", type=float, default=1e3, help="P(0) = p0·I, θ̂(0) = 0 (default 1e3)")
+    ident.add_argument("--r0", type=float, default=1e-6, help="R̂(0) (default 1e-6)")
+    ident.add_argument("--json", metavar="PATH", help="also write the result as JSON")
+
     grab = sub.add_parser("grab", help="save one image of a framegrabber device as a PNG (needs the `vision` extra)",
                           description="Bring up only the framegrabber device of CONFIG (no drive is touched), wait "
                                       "for one image and save it: grey levels stretched to 0-255, a field "
@@ -87,18 +124,27 @@ def _parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
-                                        "control-socket", "safety", "trajectory", "grabber"),
+                                        "control-socket", "safety", "trajectory", "leg", "soak", "grabber"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
                             "PUMA 560; loop-timing: an empty loop (like cyclictest); can: codec and transports; "
-                            "control: the Slotine–Li laws; telemetry, control-socket, safety, trajectory: their per-tick costs; "
+                            "control: the Slotine–Li laws and arma_gmv; telemetry, control-socket, safety, trajectory: their per-tick costs; "
+                            "leg: the leg automaton's gates + circuit per tick and the leg board codec; "
+                            "soak: the full stack over HIL (socketcand, MIT and CiA 402) for --minutes: RSS, GC, "
+                            "overruns and lateness per minute, telemetry rows, drives left enabled; "
                             "grabber: framegrabber driver, unpacking, marker, camera simulator")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
     bench.add_argument("--config", default=None, help="run configuration for `bench loop` (default: the shipped one)")
     bench.add_argument("--rate", type=float, default=1000.0, help="loop rate for `bench loop` (Hz)")
     bench.add_argument("--seconds", type=float, default=10.0, help="duration for `bench loop` (s)")
+    bench.add_argument("--minutes", type=float, default=10.0,
+                       help="duration for `bench soak` (default 10; --config: another HIL configuration)")
 
     sub.add_parser("doctor", help="report this machine's real-time readiness and what to change")
+
+    from rtctl.logic.cli import add_parser as add_leg_parser
+
+    add_leg_parser(sub)
     return p
 
 
@@ -122,6 +168,9 @@ def main(argv=None) -> int:
         print(f"rtctl: {prefix}{e}", file=sys.stderr)
         return code
     except KeyboardInterrupt:
+        return EXIT_OK
+    except BrokenPipeError:  # `rtctl model … | head`: the reader left, nothing is wrong
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return EXIT_OK
 
 
@@ -156,10 +205,24 @@ def _dispatch(args) -> int:
         from rtctl.vision.grab import grab
 
         return grab(args)
+    if args.command == "export":
+        from rtctl.telemetry.mcap_export import export_mcap
+
+        counts = export_mcap(args.path, args.mcap)
+        print(f"{args.mcap}: " + ", ".join(f"{topic} {n}" for topic, n in counts.items()))
+        return EXIT_OK
+    if args.command == "identify":
+        from rtctl.estimation.identify import main as identify
+
+        return identify(args)
     if args.command == "bench":
         from rtctl.commands import bench
 
         return bench(args)
+    if args.command == "leg":
+        from rtctl.logic.cli import leg_command
+
+        return leg_command(args)
     if args.command == "doctor":
         from rtctl.commands import doctor
 
@@ -168,7 +231,9 @@ def _dispatch(args) -> int:
 
 
 def print_json(obj) -> None:
-    print(json.dumps(obj, indent=2, sort_keys=True, default=float))
+    from rtctl import jsonout
+
+    print(jsonout.dumps(obj, indent=2, sort_keys=True))
 
 
 if __name__ == "__main__":

@@ -1,12 +1,12 @@
 """The short subcommands of ``rtctl`` (the daemon lives in :mod:`rtctl.daemon`)."""
 from __future__ import annotations
 
-import json
 import time
 from pathlib import Path
 
 import numpy as np
 
+from rtctl import jsonout
 from rtctl.cli import EXIT_OK, print_json
 
 SHIPPED_PUMA = Path(__file__).resolve().parent.parent / "configs" / "robots" / "puma560.toml"
@@ -71,18 +71,39 @@ def margins(args) -> int:
 
 
 def check(args) -> int:
-    """Validate everything `run` would, without touching a device; print the bus budget."""
+    """Validate everything `run` would, without touching a device; print the bus budget and
+    the environment variables the run will need (an unset one is reported, not an error)."""
     from rtctl.config import load_config
     from rtctl.runtime import build
+    from rtctl.tomltable import deferred_env
 
-    cfg = load_config(args.config, sim=args.sim)
-    runtime = build(cfg)  # plug-ins validate their options here; nothing is opened
+    with deferred_env() as env_uses:
+        cfg = load_config(args.config, sim=args.sim)
+        runtime = build(cfg)  # plug-ins validate their options here; nothing is opened
     print(f"{cfg.file}: OK — robot {cfg.model.name} ({cfg.model.nq} joints), "
           f"{cfg.loop.rate_hz:g} Hz, devices: {', '.join(f'{d.name} ({d.driver})' for d in cfg.devices)}, "
           f"controllers: {', '.join(f'{c.name} ({c.type})' for c in cfg.controllers) or 'none'}")
     for line in runtime.bus_budget():
         print(line)
+    for line in _env_lines(env_uses):
+        print(line)
     return EXIT_OK
+
+
+def _env_lines(uses) -> list[str]:
+    """What `check` says about the ``${VAR}`` a configuration names."""
+    if not uses:
+        return []
+    lines = ["environment variables the run reads:"]
+    for use in uses:
+        if use.value is not None:
+            state = f"set: {use.value!r}"
+        elif use.default is not None:
+            state = f"not set: the default {use.default!r} applies"
+        else:
+            state = "NOT SET: `run` needs it (it was not checked here)"
+        lines.append(f"  {use.name:<16} {use.key} — {state}")
+    return lines
 
 
 def control_request(args) -> int:
@@ -122,7 +143,7 @@ def bench(args) -> int:
         from rtctl.bench.grabber import bench_grabber as run, format_table
 
         result = run()
-    elif args.what in ("safety", "trajectory"):
+    elif args.what in ("safety", "trajectory", "leg"):
         from importlib import import_module
 
         module = import_module(f"rtctl.bench.{args.what}")
@@ -135,13 +156,18 @@ def bench(args) -> int:
         from rtctl.bench.can import bench_can as run, format_table
 
         result = run()
+    elif args.what == "soak":
+        from rtctl.bench.soak import bench_soak as run, format_table
+
+        result = run(args.config, minutes=args.minutes)
     else:
         from rtctl.bench.control import bench_control as run, format_table
 
         result = run(robot)
     print(format_table(result))
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2, default=float))
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(jsonout.dumps(result, indent=2))
         print(f"wrote {args.json}")
     return EXIT_OK
 

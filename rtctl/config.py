@@ -1,4 +1,4 @@
-"""Run configuration: TOML → validated, frozen dataclasses (DESIGN §5).
+"""Run configuration: TOML → validated, frozen dataclasses (docs/architecture.md).
 
 Everything is checked before any device is touched; every error names the file, the key
 path and what was expected (:class:`rtctl.errors.ConfigError`, exit code 2 from the CLI).
@@ -15,7 +15,7 @@ Layout of a run configuration (paths are relative to the file)::
                   joints (kind "joints" only), driver options …
     [[controllers]] name, type, joints ([] for an observer that owns no command), divisor,
                   devices (names of non-joint devices it uses), gains …
-    [trajectory]  unit, waypoints, smooth, dwell, velocity/acceleration limits
+    [trajectory]  unit, waypoints, smooth, dwell, velocity/acceleration limits, durations
     [safety]      fallback, damping, stale_ticks, position_margin, estop_off_delay
     [telemetry]   path, batch_rows
     [control]     socket
@@ -40,7 +40,7 @@ class LoopConfig:
     overrun_limit: int = 50  # consecutive overruns → controlled safe stop
     spin_us: float = 200.0  # sleep until deadline − spin, then spin
     realtime_factor: float = 1.0  # 0 = as fast as possible (simulated devices only)
-    rt: RtSettings = field(default_factory=lambda: RtSettings(gc_freeze=True))  # DESIGN §2: GC frozen while running
+    rt: RtSettings = field(default_factory=lambda: RtSettings(gc_freeze=True))  # GC frozen while running
 
     @property
     def period(self) -> float:
@@ -76,6 +76,7 @@ class TrajectoryConfig:
     dwell: float = 0.0
     velocity_scale: float = 0.5  # fraction of the robot's velocity limits
     max_acceleration: np.ndarray | None = None
+    durations: tuple[float, ...] | None = None  # s per motion segment (default: as fast as the limits allow)
 
 
 @dataclass(frozen=True)
@@ -118,6 +119,8 @@ def load_config(path, *, sim: bool = False) -> Config:
 
     robot_t = t.table("robot")
     robot_file = (base / robot_t.str("description")).resolve()
+    if not robot_file.exists():
+        raise robot_t.error("description", f"{robot_file} not found (paths are relative to the configuration's folder)")
     try:
         model = load_robot(robot_file)
     except ConfigError:
@@ -252,7 +255,7 @@ def _names(t: Table, key: str) -> tuple[str, ...]:
 
 
 def _check_owners(t: Table, controllers) -> None:
-    """One owner per joint command (DESIGN §4)."""
+    """One owner per joint command (docs/architecture.md)."""
     owner = {}
     for i, c in enumerate(controllers):
         for j in c.joints:
@@ -281,10 +284,15 @@ def _trajectory(t: Table | None, model: Model) -> TrajectoryConfig | None:
             raise t.error(f"waypoints[{k}][{j}]", f"within {model.joint_names[j]}'s limits "
                           f"[{model.q_min[j] / scale[j]:g}, {model.q_max[j] / scale[j]:g}] {unit}")
     acc = t.vector("max_acceleration", model.nq, None)
+    durations = t.vector("durations", None, None)
+    if durations is not None and (not np.all(durations > 0) or len(durations) != len(wp)):
+        raise t.error("durations", f"{len(wp)} positive numbers (s), one per motion segment from the start "
+                                   f"through each waypoint")
     cfg = TrajectoryConfig(
         waypoints=wp, smooth=t.bool("smooth", True), dwell=t.float("dwell", 0.0, min=0.0),
         velocity_scale=t.float("velocity_scale", 0.5, positive=True, max=1.0),
-        max_acceleration=None if acc is None else acc * scale)
+        max_acceleration=None if acc is None else acc * scale,
+        durations=None if durations is None else tuple(durations.tolist()))
     t.done()
     return cfg
 

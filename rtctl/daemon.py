@@ -1,4 +1,4 @@
-"""``rtctl run``: the foreground daemon (DESIGN §2).
+"""``rtctl run``: the foreground daemon (docs/architecture.md, "The tick" and "Process model").
 
 Order of events — every step that can fail does so before the next touches anything:
 
@@ -8,16 +8,17 @@ Order of events — every step that can fail does so before the next touches any
 3. configure and activate the devices (exit 4 if one cannot be brought up, after closing
    the others); read the initial state; start the trajectory from it;
 4. the loop, in the main thread, on absolute deadlines, until the duration ends, ``stop``,
-   SIGTERM or SIGINT (exit 0) or a safe stop after a fault (exit 3);
+   SIGTERM or SIGINT (exit 0) or a safe stop after a fault (exit 3). An operator's
+   ``estop`` stops the robot (damping, then drives off) but not the daemon: ``status``
+   shows it, ``reset`` re-enables the drives and holds where the arm is, ``stop`` ends;
 5. a stop is always controlled: the safety stage damps the motion, then the drives are
    deactivated and closed; the telemetry is closed (nothing recorded is lost) and the
-   summary written.
+   summary written (strict JSON) and, on a terminal, printed as a table.
 
 Signals only set a flag; the loop acts on it at the next tick boundary.
 """
 from __future__ import annotations
 
-import json
 import signal
 from dataclasses import replace
 from pathlib import Path
@@ -25,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import structlog
 
-from rtctl import logs
+from rtctl import jsonout, logs
 from rtctl.config import load_config
 from rtctl.control_socket import ControlServer
 from rtctl.errors import ConfigError, HardwareError, RtctlError
@@ -38,19 +39,27 @@ from rtctl.timing import PHASES, Ticker, apply_rt
 from rtctl.trajectory import JointLimits, hold, retarget, through_waypoints
 
 EXIT_OK, EXIT_FAULT, EXIT_HARDWARE = 0, 3, 4
-CONTROLLED_STOP = "controlled stop"  # the reason prefix of a stop that is not a fault
 STOP_GRACE_S = 5.0  # longest a controlled stop may take before the drives are cut regardless
 
 log = structlog.get_logger("rtctl.daemon")
 
 
 def run(args) -> int:
-    logs.configure(json=True, level=args.log_level)
+    fmt = logs.resolve_format(args.log_format)
+    logs.configure(fmt, level=args.log_level)
     cfg = load_config(args.config, sim=args.sim)
     if args.realtime_factor is not None:
         cfg = _with_realtime_factor(cfg, args.realtime_factor)
     runtime = build(cfg)
-    return Daemon(cfg, runtime, args).run()
+    daemon = Daemon(cfg, runtime, args)
+    daemon.summary_line = fmt == "json"  # on a terminal the table below says it better
+    try:
+        return daemon.run()
+    finally:
+        if fmt == "console" and daemon.summary is not None:
+            from rtctl.summary_table import format_summary
+
+            print(format_summary(daemon.summary), flush=True)
 
 
 def _with_realtime_factor(cfg, factor: float):
@@ -65,6 +74,9 @@ class Daemon:
         self.model = cfg.model
         self.stop_reason: str | None = None
         self.exit_code = EXIT_OK
+        self.estopped = False  # by the operator: drives off, the daemon stays up until `reset` or `stop`
+        self.summary: dict | None = None  # written by _finish
+        self.summary_line = True  # log the summary as one event (the JSON log's last line)
         self.limits = _trajectory_limits(cfg)
         self.safety = SafetyStage.from_model(
             self.model, cfg.safety, device_joints=runtime.device_joints,
@@ -171,7 +183,8 @@ class Daemon:
         tcfg = self.cfg.trajectory
         if tcfg is None:
             return hold(q0)
-        return through_waypoints(tcfg.waypoints, self.limits, start=q0, smooth=tcfg.smooth, dwell=tcfg.dwell)
+        return through_waypoints(tcfg.waypoints, self.limits, start=q0, smooth=tcfg.smooth, dwell=tcfg.dwell,
+                                 durations=tcfg.durations)
 
     def _loop(self, server) -> None:
         ticker, tick, safety = self.ticker, self.tick, self.safety
@@ -187,18 +200,20 @@ class Daemon:
                     self.stop_reason = "duration reached"
                 if self.stop_reason is not None and stopping_since is None:
                     stopping_since = t
-                    safety.estop(f"{CONTROLLED_STOP}: {self.stop_reason}")  # category 1: damp, then drives off
-                verdict = tick(t)
+                    safety.stop(self.stop_reason)  # category 1 like an e-stop, but not a fault
+                tick(t)
                 if server is not None:
                     server.poll()
                 if ticker.end_tick() and stopping_since is None:
                     self._fault("overrun limit reached")
-                if verdict == Verdict.DEACTIVATE or (stopping_since is not None and t - stopping_since > STOP_GRACE_S):
-                    if self.stop_reason is None:
+                # the stage, not this tick's verdict: a `reset` in poll() may just have re-armed it
+                if safety.deactivated or (stopping_since is not None and t - stopping_since > STOP_GRACE_S):
+                    if self.stop_reason is None and not self.estopped:
                         self._fault("safety stop: " + "; ".join(f.reason for f in safety.faults[-3:]))
                     for dev in self.rt.all_devices:
                         dev.deactivate()
-                    break
+                    if self.stop_reason is not None:
+                        break
         finally:
             for s, h in previous.items():
                 signal.signal(s, h)
@@ -207,7 +222,7 @@ class Daemon:
         if self.stop_reason is None:
             self.stop_reason = reason
             self.exit_code = EXIT_FAULT
-            log.error("fault: safe stop", reason=reason)
+            log.error("safe stop after a fault", reason=reason)
 
     def _on_signal(self, signum, frame) -> None:
         if self.stop_reason is None:
@@ -224,7 +239,10 @@ class Daemon:
             return {"ok": True, "stopping": True}
         if cmd == "estop":
             self.safety.estop("operator e-stop")
-            self._fault("operator e-stop")
+            if not self.estopped and self.stop_reason is None:
+                self.estopped = True
+                log.warning("e-stop", detail="damping, then drives off; `rtctl reset` re-enables them, "
+                                             "`rtctl stop` ends the daemon")
             return {"ok": True}
         if cmd == "reset":
             return self._reset()
@@ -246,6 +264,7 @@ class Daemon:
             c.reset(state)
         for dev in self.rt.all_devices:
             dev.activate()
+        self.estopped = False
         return {"ok": True, "faults": []}
 
     def _move(self, req: dict):
@@ -265,7 +284,7 @@ class Daemon:
         return {"ok": True, "robot": self.model.name, "t": self.ticker.sim_time_s, "tick": self.ticker.tick,
                 "q": s.position.tolist(), "qd": s.velocity.tolist(), "q_des": self.rt.ref.q.tolist(),
                 "verdict": Verdict(self.tick.verdict).name, "faults": [f.reason for f in self.safety.faults],
-                "overruns": self.ticker.stats.overruns,
+                "overruns": self.ticker.stats.overruns, "estopped": self.estopped,
                 "stopping": self.stop_reason}
 
     # -- telemetry and summary -----------------------------------------------------------
@@ -286,6 +305,8 @@ class Daemon:
         path.parent.mkdir(parents=True, exist_ok=True)
         meta = {"config": str(self.cfg.file), "robot": self.model.name, "joints": list(self.model.joint_names),
                 "rate_hz": self.cfg.loop.rate_hz, "phases": list(PHASES)}
+        for c in rt.controllers:  # e.g. the names of a vector column's entries: "leg_gates_labels"
+            meta.update(getattr(c, "telemetry_meta", {}))
         rec = Recorder(path, schema, meta, block_rows=self.cfg.telemetry_batch,
                        wait_when_full=self.cfg.loop.realtime_factor == 0)
         for name, arr in sources.items():
@@ -303,8 +324,12 @@ class Daemon:
             summary["telemetry"] = {"path": str(self.recorder.path), "rows": self.recorder.rows,
                                     "dropped_rows": self.recorder.dropped_rows}
             self.recorder.close(summary=summary)
+        self.summary = summary
         if self.args.summary:
-            Path(self.args.summary).write_text(json.dumps(summary, indent=2, default=float))
+            Path(self.args.summary).parent.mkdir(parents=True, exist_ok=True)
+            Path(self.args.summary).write_text(jsonout.dumps(summary, indent=2))
+        if not self.summary_line:
+            return
         timing = summary["timing"]
         log.info("summary", exit_code=self.exit_code, stop_reason=self.stop_reason, ticks=timing.get("ticks"),
                  overruns=timing.get("overruns"), achieved_rate_hz=timing.get("achieved_rate_hz"),
@@ -313,7 +338,7 @@ class Daemon:
                  compute_p99_us=(timing.get("compute_us") or {}).get("tick", {}).get("p99"),
                  tracking_rms_rad=summary["tracking_error_rad"]["rms_all"],
                  tracking_max_rad=summary["tracking_error_rad"]["max_all"],
-                 faults=sum(not f["reason"].startswith(CONTROLLED_STOP) for f in summary["safety"].get("faults", [])))
+                 faults=len(summary["safety"]["faults"]))
 
 
 def _trajectory_limits(cfg) -> JointLimits:

@@ -19,13 +19,14 @@ class KinematicsError(RtctlError):
 
 
 class ConfigError(RtctlError):
-    """A configuration file is invalid; names the file, the key path and what was expected."""
+    """A configuration file is invalid; names the file, the key path (empty: the file as a
+    whole) and what was expected or what is wrong."""
 
     def __init__(self, file, key_path: str, expected: str):
         self.file = str(file)
         self.key_path = key_path
         self.expected = expected
-        super().__init__(f"{self.file}: {key_path}: {expected}")
+        super().__init__(f"{self.file}: {key_path}: {expected}" if key_path else f"{self.file}: {expected}")
 
 
 class HardwareError(RtctlError):
@@ -72,3 +73,8 @@ class ControlSocketError(RtctlError):
 
 class TelemetryError(RtctlError):
     """A telemetry file cannot be written or read back (bad schema, writer died, not a telemetry file)."""
+
+
+class ControllerError(RtctlError):
+    """A controller cannot produce a valid command (e.g. a non-finite estimate); names the joint
+    and the quantity. Raised from ``update()``: the safety stage takes over in the same tick."""

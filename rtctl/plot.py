@@ -4,7 +4,8 @@ Panels, each drawn only when its columns were recorded: joint tracking (``q`` ag
 ``q_des``, one panel per joint), tracking errors ``q_des − q``, torques ``tau``, timing
 histograms (every column named ``*_ns``: per-phase compute times, wake lateness), the
 sliding variable ``s``, adaptive estimates (columns starting with ``params_hat`` or
-``pi_hat``), and the tool marker seen by a camera (``marker_measured_px`` against
+``pi_hat``), the leg automaton's gait phases (``leg_state`` with its gates, actions and
+the foot loads), and the tool marker seen by a camera (``marker_measured_px`` against
 ``marker_predicted_px``, and their difference ``marker_error_px``). The time axis is ``t``
 when recorded, the tick index otherwise.
 
@@ -14,6 +15,7 @@ object API with the Agg canvas (no pyplot state, no display needed).
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -22,20 +24,28 @@ from rtctl.telemetry import read
 from rtctl.timing import PHASES
 
 ESTIMATE_PREFIXES = ("params_hat", "pi_hat")
+# arma_gmv internals: column → (title, unit); a_hat / b_hat are (coefficients, joints) per row
+ARMA_PANELS = {"r_hat": ("virtual-noise mean r̂", "rad"), "R_hat": ("virtual-noise variance R̂", "rad²"),
+               "eps": ("innovation ε", "rad"), "u": ("GMV torque u", "N·m")}
 
 
 def _figure_class():
     try:
         from matplotlib.figure import Figure
     except ImportError:
-        raise RtctlError("plotting needs matplotlib, the optional extra `plot`: "
-                         "pip install 'rtctl[plot]'") from None
+        raise RtctlError("plotting needs matplotlib, the optional extra `plot`: in the clone, "
+                         ".venv/bin/pip install -e '.[plot]'") from None
     return Figure
 
 
-def _per_joint(ax, t, values, title, ylabel):
+def _joint_names(tel, count):
+    names = tel.meta.get("joints") or []
+    return list(names) if len(names) == count else [f"j{j + 1}" for j in range(count)]
+
+
+def _per_joint(ax, t, values, title, ylabel, names):
     for j in range(values.shape[1]):
-        ax.plot(t, values[:, j], lw=0.8, label=f"j{j + 1}")
+        ax.plot(t, values[:, j], lw=0.8, label=names[j])
     ax.set_title(title)
     ax.set_ylabel(ylabel)
     ax.legend(fontsize=6, ncol=3, loc="best")
@@ -50,7 +60,7 @@ def _tracking(t, tel, j):
         if "q_des" in tel:
             ax.plot(t, _columns(tel, "q_des")[:, j], "--", lw=1.0, label="q_des")
         ax.plot(t, _columns(tel, "q")[:, j], lw=0.8, label="q")
-        ax.set_title(f"joint {j + 1}")
+        ax.set_title(f"joint {j + 1}: {_joint_names(tel, _columns(tel, 'q').shape[1])[j]}")
         ax.set_ylabel("rad")
         ax.legend(fontsize=6, loc="best")
     return draw
@@ -71,15 +81,73 @@ def _timing(tel, names):
         ax.set_yscale("log")
         ax.set_title("timing per tick")
         ax.set_xlabel("µs")
+        ax.set_ylabel("ticks")
         ax.legend(fontsize=6, loc="best")
     return draw
 
 
+# the 10 inertial parameters of a link, in order: m, m·c (3), J (6) — one line style each
+_PARAM_STYLES = (("-", "m (kg)", 1), ("--", "m·c (kg·m)", 3), (":", "J (kg·m²)", 6))
+
+
 def _estimates(t, tel, names):
+    """Each link's 10 parameters in the link's colour, the style telling mass, first moment and
+    inertia apart; a column that is not 10 per joint gets one colour per column."""
+    joints = tel.meta.get("joints") or []
+
     def draw(ax):
+        from matplotlib.lines import Line2D
+
+        handles = []
         for name in names:
-            ax.plot(t, _columns(tel, name), lw=0.6)
+            values = _columns(tel, name)
+            per_link = len(joints) > 0 and values.shape[1] == 10 * len(joints)
+            if not per_link:
+                for k in range(values.shape[1]):
+                    ax.plot(t, values[:, k], lw=0.6, label=f"{name}[{k}]" if values.shape[1] > 1 else name)
+                continue
+            for i, joint in enumerate(joints):
+                colour = f"C{i % 10}"
+                first = 0
+                for style, _, count in _PARAM_STYLES:
+                    ax.plot(t, values[:, 10 * i + first:10 * i + first + count], style, color=colour, lw=0.6)
+                    first += count
+                handles.append(Line2D([], [], color=colour, lw=1.5, label=joint))
+        if handles:
+            handles += [Line2D([], [], color="0.3", ls=style, lw=1.0, label=label) for style, label, _ in _PARAM_STYLES]
+            ax.legend(handles=handles, fontsize=6, ncol=3, loc="best")
+        elif ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=6, ncol=3, loc="best")
         ax.set_title("adaptive estimates: " + ", ".join(names))
+        ax.set_ylabel("estimate (SI units)")
+    return draw
+
+
+def _gait_phases(t, tel):
+    def draw(ax):
+        ax.step(t, _columns(tel, "leg_state")[:, 0], where="post", lw=1.2, color="k", label="state")
+        if "leg_gates" in tel:
+            gates = _columns(tel, "leg_gates")
+            names = tel.meta.get("leg_gates_labels") or [f"g{k}" for k in range(gates.shape[1])]
+            for k in range(gates.shape[1]):  # one thin band per gate below the states
+                ax.fill_between(t, -0.9 - 0.6 * k, -0.9 - 0.6 * k + 0.45 * gates[:, k], step="post", lw=0)
+                ax.text(t[0], -0.75 - 0.6 * k, names[k], fontsize=5, va="center")
+        ax.set_title("gait phases: automaton state (and gate bits below)")
+        ax.set_ylabel("state")
+    return draw
+
+
+def _leg_actions(t, tel):
+    def draw(ax):
+        actions = _columns(tel, "leg_actions")
+        ax.step(t, actions[:, 0], where="post", lw=0.8, label="knee")
+        ax.step(t, actions[:, 1] + 0.05, where="post", lw=0.8, label="ankle")
+        if "leg_channels" in tel:
+            loads = _columns(tel, "leg_channels")[:, 3:5]
+            ax.plot(t, np.clip(loads, 0, 3), lw=0.5, alpha=0.6)
+        ax.set_yticks([0, 1, 2, 3], ["hold", "decrease", "increase", "release"])
+        ax.set_title("actions (knee, ankle) and foot loads (toe, heel)")
+        ax.legend(fontsize=6, loc="best")
     return draw
 
 
@@ -113,24 +181,53 @@ def _panels(tel):
         panels += [_tracking(t, tel, j) for j in range(_columns(tel, "q").shape[1])]
     if "q" in tel and "q_des" in tel:
         error = _columns(tel, "q_des") - _columns(tel, "q")
-        panels.append(lambda ax: _per_joint(ax, t, error, "tracking error q_des − q", "rad"))
+        panels.append(lambda ax: _per_joint(ax, t, error, "tracking error q_des − q", "rad", _joint_names(tel, error.shape[1])))
     if "tau" in tel:
-        panels.append(lambda ax: _per_joint(ax, t, _columns(tel, "tau"), "torque", "N·m"))
+        tau = _columns(tel, "tau")
+        panels.append(lambda ax: _per_joint(ax, t, tau, "torque", "N·m", _joint_names(tel, tau.shape[1])))
     timing = [name for name in tel.columns if name.endswith("_ns")]
     if timing:
         panels.append(_timing(tel, timing))
     if "s" in tel:
-        panels.append(lambda ax: _per_joint(ax, t, _columns(tel, "s"), "sliding variable s", "rad/s"))
+        s = _columns(tel, "s")
+        panels.append(lambda ax: _per_joint(ax, t, s, "sliding variable s", "rad/s", _joint_names(tel, s.shape[1])))
+    if "leg_state" in tel:
+        panels.append(_gait_phases(t, tel))
+    if "leg_actions" in tel:
+        panels.append(_leg_actions(t, tel))
     if "marker_measured_px" in tel and "marker_predicted_px" in tel:
         panels += [_marker(t, tel), _marker_error(t, tel)]
     estimates = [name for name in tel.columns if name.startswith(ESTIMATE_PREFIXES)]
     if estimates:
         panels.append(_estimates(t, tel, estimates))
+    panels += _arma_panels(t, tel)
+    return panels
+
+
+def _arma_panels(t, tel):
+    panels = []
+    for name, symbol in (("a_hat", "â"), ("b_hat", "b̂")):
+        if name in tel and tel[name].ndim == 3:
+            first = 1 if name == "a_hat" else 0
+            for k in range(tel[name].shape[1]):
+                panels.append(lambda ax, v=tel[name][:, k, :], title=f"{symbol}{first + k}":
+                              _per_joint(ax, t, v, title, "", _joint_names(tel, v.shape[1])))
+    for name, (title, unit) in ARMA_PANELS.items():
+        if name in tel and "b_hat" in tel:
+            panels.append(lambda ax, v=_columns(tel, name), title=title, unit=unit:
+                          _per_joint(ax, t, v, title, unit, _joint_names(tel, v.shape[1])))
     return panels
 
 
 def plot_run(path, out_png, columns: int = 3) -> None:
-    """Draw the telemetry file ``path`` into the PNG ``out_png``."""
+    """Draw the telemetry file ``path`` into the PNG ``out_png`` (its folder is created)."""
+    fig = figure(path, columns)
+    Path(out_png).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out_png, dpi=90)
+
+
+def figure(path, columns: int = 3):
+    """The matplotlib Figure ``plot_run`` saves."""
     Figure = _figure_class()
     tel = read(path)
     panels = _panels(tel)
@@ -149,4 +246,4 @@ def plot_run(path, out_png, columns: int = 3) -> None:
                  + (f" at {meta['rate_hz']:g} Hz" if "rate_hz" in meta else "")
                  + (f", {tel.dropped_rows} rows dropped" if tel.dropped_rows else "")
                  + (" (file truncated)" if tel.truncated else ""))
-    fig.savefig(out_png, dpi=90)
+    return fig

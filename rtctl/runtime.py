@@ -91,7 +91,7 @@ def build(cfg: Config) -> Runtime:
         if c.type not in CONTROLLERS:
             raise ConfigError(cfg.file, f"controllers[{i}].type", f"one of {', '.join(sorted(CONTROLLERS))}, got {c.type!r}")
         controller = controller_class(c.type).from_config(c, model)
-        _bind(cfg, i, controller, c.devices, io, io_users)
+        _bind(cfg, i, controller, c.devices, io, io_users, {d.name: d for d in devices})
         controllers.append(controller)
     n = model.nq
     if len(devices) == 1 and np.array_equal(device_joints[0], np.arange(n)):
@@ -112,16 +112,19 @@ def _driver(cfg: Config, i: int, d):
         raise ConfigError(cfg.file, f"devices[{i}].driver", f"an installed driver ({e})") from None
 
 
-def _bind(cfg: Config, i: int, controller, names, io: dict, io_users: list) -> None:
-    """Hand controller i the non-joint devices it names; it checks they are what it needs."""
-    unknown = [x for x in names if x not in io]
+def _bind(cfg: Config, i: int, controller, names, io: dict, io_users: list, joint_devices: dict) -> None:
+    """Hand controller i the devices it names — non-joint ones, or a joint device with outputs
+    of its own (a leg board's actuator codes); it checks they are what it needs."""
+    named = {**joint_devices, **io}
+    unknown = [x for x in names if x not in named]
     if unknown:
         raise ConfigError(cfg.file, f"controllers[{i}].devices", f"names of non-joint devices "
-                          f"({', '.join(io) or 'none configured'}); unknown: {unknown[0]!r}")
+                          f"({', '.join(io) or 'none configured'}) or joint devices; unknown: {unknown[0]!r}")
     try:
-        controller.bind({x: io[x] for x in names})
+        controller.bind({x: named[x] for x in names})
     except (TypeError, ValueError) as e:
         raise ConfigError(cfg.file, f"controllers[{i}].devices", str(e)) from None
     order = list(io)
     for x in names:
-        io_users[order.index(x)].append(controller)
+        if x in io:
+            io_users[order.index(x)].append(controller)

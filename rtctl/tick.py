@@ -1,10 +1,12 @@
-"""One tick of the loop (DESIGN §2):
+"""One tick of the loop (docs/architecture.md, "The tick"):
 
     read() → reference → controllers update() (each at its rate divisor) → safety → write() → record
 
 Joint devices are read first, then the other devices (framegrabber, I/O board …). A device
 that fails (ERROR on read or on the previous write) takes the controllers that use it out of
 this tick: they are not updated and the safety stage engages the fallback, naming the device.
+While the safety stage is in charge, every device is put in its own safe state before the
+write (``Hardware.safe_state``: a leg board locks its joints), in the tick the fault is found.
 
 Each phase is timed by the :class:`~rtctl.timing.Ticker` (``mark``). Nothing here allocates
 on the normal path: devices and controllers write into preallocated arrays, the robot-wide
@@ -32,6 +34,7 @@ class Tick:
         self.statuses = np.zeros(len(runtime.devices), dtype=np.int64)
         self.write_statuses = np.zeros(len(runtime.devices), dtype=np.int64)  # carried to the next check
         self.io = list(runtime.io.values())
+        self.all_devices = runtime.all_devices
         self.io_statuses = np.zeros(len(self.io), dtype=np.int64)
         self.io_write_statuses = np.zeros(len(self.io), dtype=np.int64)
         self._io_errors = [f"device {d.name} failed" for d in self.io]  # built once: no allocation per tick
@@ -77,6 +80,9 @@ class Tick:
 
         self.verdict = self.safety.check(t, ticker.tick, state, self.statuses, command, controller_ok,
                                          self.controller_error)
+        if self.verdict != Verdict.OK:
+            for dev in self.all_devices:
+                dev.safe_state()
         ticker.mark(SAFETY)
 
         for i, dev in enumerate(rt.devices):

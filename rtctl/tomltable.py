@@ -10,6 +10,9 @@ import math
 import os
 import re
 import tomllib
+from contextlib import contextmanager
+from contextvars import ContextVar
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -45,7 +48,7 @@ def load_toml(path) -> "Table":
         with path.open("rb") as f:
             data = tomllib.load(f)
     except FileNotFoundError:
-        raise ConfigError(path, "<file>", "an existing TOML file") from None
+        raise ConfigError(path, "", "not found") from None
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(path, "<syntax>", f"valid TOML ({e})") from None
     return Table(data, path, "")
@@ -150,20 +153,63 @@ class Table:
             raise self.error(unknown[0], f"unknown key (known here: {', '.join(sorted(self._seen)) or 'none'})")
 
 
+class Deferred(str):
+    """A value whose ``${VAR}`` is not set while only checking (:func:`deferred_env`): the
+    template text itself, left for the run to expand. Validators skip what they cannot know."""
+
+
+@dataclass(frozen=True)
+class EnvUse:
+    """One ``${VAR}`` a configuration names: where, and its value here (None: unset)."""
+
+    name: str
+    file: str
+    key: str
+    value: str | None
+    default: str | None
+
+
+_env_uses: ContextVar[list | None] = ContextVar("rtctl_env_uses", default=None)
+
+
+@contextmanager
+def deferred_env():
+    """For ``rtctl check``: inside, a ``${VAR}`` that is not set is no error — the value
+    becomes a :class:`Deferred` — and every variable named is recorded. Yields the list of
+    :class:`EnvUse`, filled as the configuration is read."""
+    uses: list[EnvUse] = []
+    token = _env_uses.set(uses)
+    try:
+        yield uses
+    finally:
+        _env_uses.reset(token)
+
+
 def expand_env(t: Table, key: str, value: str, environ=os.environ):
     """``value`` with ``${VAR}`` / ``${VAR:-default}`` replaced from ``environ``; an integer
-    literal obtained by expansion becomes an int. ConfigError for an unset variable without default."""
+    literal obtained by expansion becomes an int. ConfigError for an unset variable without a
+    default (inside :func:`deferred_env`: a :class:`Deferred` instead)."""
+    uses = _env_uses.get()
+    unset = []
 
     def sub(m):
         name, default = m.group(1), m.group(2)
+        if uses is not None:
+            uses.append(EnvUse(name, str(t.file), t.key(key), environ.get(name), default))
         if name in environ:
             return environ[name]
         if default is not None:
             return default
-        raise t.error(key, f"the environment variable {name} to be set (e.g. from hil-sim's JSON line), "
-                           f"or a default: ${{{name}:-…}}")
+        unset.append(name)
+        return m.group(0)
 
     expanded = ENV_TEMPLATE.sub(sub, value)
+    if unset:
+        if uses is not None:
+            return Deferred(value)
+        name = unset[0]
+        raise t.error(key, f"uses ${{{name}}}, which is not set: set {name} (hil-sim prints it in its JSON line) "
+                           f"or give a default, ${{{name}:-…}}")
     if expanded != value and re.fullmatch(r"[+-]?\d+", expanded.strip()):
         return int(expanded)
     return expanded

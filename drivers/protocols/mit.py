@@ -1,5 +1,5 @@
 """MIT "mini-cheetah" joint-drive protocol: pure bytes ↔ values, shared by the CAN driver and
-the emulated drives in ``hil_sim`` (spec/can_joints.md §1).
+the emulated drives in ``hil_sim`` (docs/can_joints.md).
 
 Command (standard 11-bit id = the drive's id, 8 bytes, big-endian bit fields)::
 

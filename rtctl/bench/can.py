@@ -9,11 +9,11 @@ joint group over each CAN transport, as the CAN driver would run it every tick.
   process (``python -m hil_sim.socketcand|slcan``), as in HIL. Paced at ``rate_hz`` with
   absolute deadlines; a cycle longer than the period is a miss.
 
-Goals (spec/can_joints.md, issue 4): socketcand 6-joint cycle median ≤ 0.35 ms, p99 ≤ 0.7 ms;
+Goals: socketcand 6-joint cycle median ≤ 0.35 ms, p99 ≤ 0.7 ms;
 slcan 3 joints at 1 kHz without misses.
 
 The drivers and the simulator are imported inside the functions: ``rtctl`` itself never
-imports them (DESIGN §1); this benchmark needs both ends of the wire.
+imports them (the dependency rule, docs/architecture.md); this benchmark needs both ends of the wire.
 """
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""``rtctl bench control``: the cost of one Slotine–Li tick (τ + adaptation), both laws.
+"""``rtctl bench control``: the cost of one Slotine–Li tick (τ + adaptation), both laws, and one
+``arma_gmv`` update (:mod:`rtctl.bench.arma_gmv`).
 
 For random all-revolute chains of n = 2, 6, 12, 24 joints and the PUMA 560 (or ``--robot``):
 
@@ -128,6 +129,9 @@ def _time_pinocchio(model, state, repeats):
 
 
 def bench_control(robot_path, repeats: int = 4000) -> dict:
+    from rtctl.bench.arma_gmv import bench_arma_gmv
+
+    arma = bench_arma_gmv(repeats)
     rng = np.random.default_rng(0)
     models = [random_chain(n, seed=n) for n in SIZES] + [load_robot(robot_path)]
     rows = []
@@ -152,6 +156,7 @@ def bench_control(robot_path, repeats: int = 4000) -> dict:
         "t24_over_t6_le_4.5": growth["cstar"] <= 4.5,
     }
     return {"rows": rows, "t24_over_t6": growth, "t24_over_t6_compiled": growth_compiled, "goals": goals,
+            "arma_gmv": arma,
             "note": "tick = SlotineLi.update() from Python once per tick (what the loop does); compiled = the "
                     "kernel in a numba loop; pinocchio = tau only (no adaptation), from Python"}
 
@@ -173,4 +178,8 @@ def format_table(result: dict) -> str:
                  f"(compiled {gc['classic']:.2f})")
     lines.append("goals (PUMA row, C* tick): " + ", ".join(f"{k}: {'yes' if v else ('n/a' if v is None else 'NO')}"
                                                             for k, v in result["goals"].items()))
+    if "arma_gmv" in result:
+        from rtctl.bench.arma_gmv import format_rows
+
+        lines += [""] + format_rows(result["arma_gmv"])
     return "\n".join(lines)

@@ -34,7 +34,7 @@ def _run(cfg, seconds: float, directory: Path, name: str) -> dict:
 
 
 def bench_loop(config=None, rate: float = 1000.0, seconds: float = 10.0, rt: bool = True) -> dict:
-    logs.configure(json=True, level="warning")
+    logs.configure("json", level="warning")
     cfg = load_config(config or SHIPPED, sim=True)
     loop = replace(cfg.loop, rate_hz=rate, rt=KNOBS if rt else RtSettings(gc_freeze=True))
     result = {"config": str(cfg.file), "robot": cfg.model.name, "joints": cfg.model.nq, "rate_hz": rate,

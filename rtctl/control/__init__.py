@@ -1,4 +1,4 @@
-"""Controllers (DESIGN §4): one module per controller, each behind the Controller protocol.
+"""Controllers (docs/architecture.md): one module per controller, each behind the Controller protocol.
 
 ``CONTROLLERS`` maps the configuration's ``type`` to the class; classes are imported on
 first use so that a run pays only for the controllers it configures.
@@ -13,6 +13,8 @@ CONTROLLERS = {
     "pd_gravity": "rtctl.control.pd_gravity:PDGravity",
     "computed_torque": "rtctl.control.computed_torque:ComputedTorque",
     "slotine_li": "rtctl.control.slotine_li:SlotineLi",
+    "arma_gmv": "rtctl.control.arma_gmv:ArmaGmv",
+    "leg_automaton": "rtctl.control.leg_automaton:LegAutomaton",
     "marker_observer": "rtctl.vision.observer:MarkerObserver",  # owns no command: watches the tool marker
 }
 

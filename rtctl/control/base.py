@@ -1,4 +1,4 @@
-"""The Controller protocol (DESIGN §4).
+"""The Controller protocol (docs/architecture.md).
 
 A controller owns the commands of some joints (one owner per joint, checked at start; an
 observer owns none) and runs every ``divisor``-th tick. It may use non-joint devices (a

@@ -1,5 +1,5 @@
 """Slotine–Li adaptive control on the C* model (Huo, Gao & Cheng) or the classic Christoffel
-model (Niemeyer & Slotine 1988); spec/cstar_slotine_li.md §3, equations (18)-(42) of seeds/000.
+model (Niemeyer & Slotine 1988); docs/cstar_slotine_li.md, the paper's equations (18)-(42).
 
     q̃ = q − q_d,  q̇_r = q̇_d − Λ q̃,  q̈_r = q̈_d − Λ (q̇ − q̇_d),  s = q̇ − q̇_r
     τ = Ĥ q̈_r + Ĉ q̇_r + Ĝ − K_D s                        (18) / (29), Ĉ = C (classic) or C* (cstar)

@@ -1,7 +1,7 @@
-"""Compiled recursions of the Slotine–Li adaptive controller, both laws (spec §3; equation
-numbers are Huo, Gao & Cheng's, seeds/000).
+"""Compiled recursions of the Slotine–Li adaptive controller, both laws (docs/cstar_slotine_li.md;
+equation numbers are Huo, Gao & Cheng's).
 
-Link-local coordinates, Featherstone's convention (spec §2); X_i = ⁱX_λ(i), S_i joint i's
+Link-local coordinates, Featherstone's convention; X_i = ⁱX_λ(i), S_i joint i's
 motion subspace, ×/×* the motion/force cross products. One tick, for i = 1..n:
 
     v_i = X_i v_λ + S_i q̇_i,  u_i = X_i u_λ + S_i q̇_r,i                         (34) = (21)
@@ -17,7 +17,7 @@ motion subspace, ×/×* the motion/force cross products. One tick, for i = 1..n:
   both:
     τ_i = S_iᵀ f_i − k_i s_i                                                      (37) = (24)
 
-φ is the spec's hint: xᵀ I(π) y = φ(x, y)·π for motion vectors x, y, so each of the paper's
+φ is the linearity of the inertia in π: xᵀ I(π) y = φ(x, y)·π for motion vectors x, y, so each of the paper's
 10 scalar updates e_iᵀ f̂_i^k (42) becomes one component of φ, and eᵀ (v ×* R_k u) =
 −φ_k(v × e, u): the C* bracket is one φ, the classic one three.
 

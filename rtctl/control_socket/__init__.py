@@ -1,4 +1,4 @@
-"""The control socket (DESIGN §5): a Unix-domain socket, mode 0600, speaking msgpack.
+"""The control socket (docs/architecture.md, docs/operations.md): a Unix-domain socket, mode 0600, speaking msgpack.
 
 Wire format, both directions: every message is a 4-byte big-endian unsigned length ``N``
 followed by ``N`` bytes of msgpack encoding one map. A request is ``{"cmd": ..., **fields}``

@@ -112,6 +112,11 @@ class Hardware:
     def _on_close(self) -> None:
         """Release the link."""
 
+    def safe_state(self) -> None:
+        """Put the outputs in the device's own safe state (a leg board locks its joints). The
+        loop calls it in every tick the safety stage is in charge, before ``write``; joint
+        devices need nothing here (the stage writes their fallback command). Must not allocate."""
+
     def diagnostics(self) -> dict:
         """Counters and facts for status and the run summary."""
         return {"lifecycle": self.lifecycle.value, "last_error": self.last_error}

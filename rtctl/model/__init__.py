@@ -22,7 +22,7 @@ def load_robot(path) -> Model:
         from rtctl.tomltable import load_toml
 
         return from_table(load_toml(path))
-    raise ConfigError(path, "<file>", "a robot description ending in .toml (D-H table) or .urdf")
+    raise ConfigError(path, "", "not a robot description: the name must end in .toml (D-H table) or .urdf")
 
 
 __all__ = ["Model", "REVOLUTE", "PRISMATIC", "load_robot"]

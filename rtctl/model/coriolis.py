@@ -1,4 +1,4 @@
-"""The Coriolis matrix in both factorisations, and Ḣ, from composite body terms (spec §1, §4).
+"""The Coriolis matrix in both factorisations, and Ḣ, from composite body terms (docs/cstar_slotine_li.md).
 
 With body Jacobians J_k (columns S_j, j supporting k) and J̇_k (columns Ṡ_j = v_j × S_j),
 any body-level factorisation v_k ×* I_k v_k = B_k v_k gives a joint-space one,
@@ -29,7 +29,7 @@ CHRISTOFFEL, CSTAR, INERTIA_RATE = 0, 1, 2  # which body term B_k the composites
 
 @njit(cache=True)
 def inertia6(p, out):
-    """The 6×6 spatial inertia I(p) (spec §2)."""
+    """The 6×6 spatial inertia I(p) (eq. 17 of docs/cstar_slotine_li.md)."""
     zero_matrix(out)
     out[0, 0], out[0, 1], out[1, 1], out[0, 2], out[1, 2], out[2, 2] = p[4], p[5], p[6], p[7], p[8], p[9]
     out[1, 0], out[2, 0], out[2, 1] = p[5], p[7], p[8]

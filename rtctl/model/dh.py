@@ -1,4 +1,4 @@
-"""Robots from a TOML D-H table (Paul's standard D-H, spec/kinematics.md eq. 1).
+"""Robots from a TOML D-H table (Paul's standard D-H, eq. 1 of docs/kinematics.md).
 
     ⁱ⁻¹Aᵢ = Rot(z, θᵢ) · Trans(0, 0, dᵢ) · Trans(aᵢ, 0, 0) · Rot(x, αᵢ)        (1)
 

@@ -1,4 +1,4 @@
-"""Rigid-body dynamics of a serial chain (spec/cstar_slotine_li.md §4):
+"""Rigid-body dynamics of a serial chain (docs/cstar_slotine_li.md):
 
     H(q) q̈ + C(q, q̇) q̇ + G(q) = τ
 
@@ -139,7 +139,7 @@ def mass_matrix(model: Model, q) -> np.ndarray:
 
 
 def coriolis_matrix(model: Model, q, qd, kind: str = "christoffel") -> np.ndarray:
-    """C(q, q̇) in one of the two factorisations of spec §1:
+    """C(q, q̇) in one of the two factorisations of docs/cstar_slotine_li.md:
 
     * ``"christoffel"`` — c_ij = Σ_k c_ijk q̇_k from the Christoffel symbols (paper eq. 2;
       Pinocchio's ``computeCoriolisMatrix``);

@@ -1,4 +1,4 @@
-"""Forward dynamics by CRBA + Cholesky (Featherstone 2008, §6.1 and §6.4; spec §4):
+"""Forward dynamics by CRBA + Cholesky (Featherstone 2008, §6.1 and §6.4; docs/cstar_slotine_li.md):
 
     (H(q) + diag(armature)) q̈ = τ − (C(q, q̇) q̇ + G(q))
 

@@ -1,4 +1,4 @@
-"""Closed-form inverse kinematics of PUMA-type arms (Paul, Shimano & Mayer 1981; spec §1).
+"""Closed-form inverse kinematics of PUMA-type arms (Paul, Shimano & Mayer 1981; docs/kinematics.md).
 
 A PUMA-type arm is a 6-joint revolute D-H chain (Paul's convention, eq. 1) with
 |sin α₁| = 1, α₂ = 0 (shoulder and elbow axes parallel), |sin α₃| = |sin α₄| = |sin α₅| = 1 and

@@ -1,4 +1,4 @@
-"""Forward, differential and inverse kinematics with a tool frame (spec/kinematics.md).
+"""Forward, differential and inverse kinematics with a tool frame (docs/kinematics.md).
 
 Frames follow :mod:`rtctl.model.robot`: body ``i`` sits in body ``parent[i]`` at
 ``T_tree[i] @ T_joint(q_i)``, and the tool pose is F = ⁰Tₙ(q) · flange · tool (eq. 7, the

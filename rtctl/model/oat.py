@@ -1,4 +1,4 @@
-"""Tool orientation as (O, A, T) angles about the orientation reference frame (spec §1).
+"""Tool orientation as (O, A, T) angles about the orientation reference frame (docs/kinematics.md).
 
 The orientation reference frame O_R is the base frame rotated +90° about x₀ (eq. 8)::
 

@@ -1,7 +1,7 @@
 """Dynamic regressors, linear in the inertial parameters π (n × 10n, Pinocchio's column order:
-link k's 10 parameters in columns 10k … 10k+9, spec §2, eq. 17).
+link k's 10 parameters in columns 10k … 10k+9, eq. 17 of docs/cstar_slotine_li.md).
 
-Both come from one recursion (spec §3, eqs. 34–35 = 21–22), in link coordinates:
+Both come from one recursion (eqs. 34–35 = 21–22 of docs/cstar_slotine_li.md), in link coordinates:
 
     v_i = X_i v_λ + S_i q̇_i,   u_i = X_i u_λ + S_i q̇_r,i,
     w_i = X_i w_λ + S_i q̈_r,i + v_i × S_i q̇_r,i,   w_0 = −g

@@ -1,4 +1,4 @@
-"""Recursive Newton–Euler inverse dynamics (Featherstone 2008, Table 5.1; spec §4).
+"""Recursive Newton–Euler inverse dynamics (Featherstone 2008, Table 5.1; docs/cstar_slotine_li.md).
 
     v_i = X_i v_λ + S_i q̇_i                          v_0 = 0
     a_i = X_i a_λ + S_i q̈_i + v_i × S_i q̇_i          a_0 = −g   (gravity as base acceleration)

@@ -6,7 +6,7 @@ The model is immutable and numeric; workspaces for the algorithms live elsewhere
 * body ``i`` is the frame in which joint ``i`` moves: its placement in body ``parent[i]``
   is ``T_tree[i] @ T_joint(q_i)`` where ``T_tree[i] = (R_tree[i], p_tree[i])`` is constant and
   ``T_joint`` is a rotation about ``axis[i]`` (revolute) or a translation along it (prismatic);
-* for a D-H robot (Paul's convention, spec/kinematics.md eq. 1) body ``i`` is D-H frame
+* for a D-H robot (Paul's convention, eq. 1 of docs/kinematics.md) body ``i`` is D-H frame
   ``i-1`` rotated by ``q_i`` about its z axis, so ``axis = z`` and ``T_tree[i]`` is the fixed
   part ``Rot(z, θ0) Trans(0,0,d) Trans(a,0,0) Rot(x, α)`` of the previous link;
 * ``flange`` places the end frame (D-H frame n, or a URDF's last link) in the last body and

@@ -11,7 +11,7 @@ at ``p`` and orientation ``R`` in A (x_A = R x_B + p), ``X = [[E, 0], [−E p×,
 ``E = Rᵀ`` (book eq. 2.24); force vectors transform with ``X* = X⁻ᵀ``.
 
 The spatial inertia of a body about its frame origin, in its coordinates, is linear in the
-10 inertial parameters in Pinocchio's order (spec §2)::
+10 inertial parameters in Pinocchio's order (docs/cstar_slotine_li.md)::
 
     π = (m, m c_x, m c_y, m c_z, J_xx, J_xy, J_yy, J_xz, J_yz, J_zz)
     I(π) = [[J, m ĉ], [m ĉᵀ, m 1₃]] = Σ_k R_k π_k                                     (17)

@@ -59,7 +59,7 @@ class GuardVerdict(enum.IntEnum):
 
 
 class Guard(Protocol):
-    """Run-time hook of the interference guard (spec/interference_guard.md §2): called every
+    """Run-time hook of the interference guard (docs/interference_guard.md): called every
     tick the controllers are in charge, after the command is bounded, before it is written."""
 
     reason: str

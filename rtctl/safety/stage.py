@@ -1,4 +1,4 @@
-"""The safety stage (DESIGN §2): every tick, after the controllers and before ``write()``.
+"""The safety stage (docs/architecture.md, "The tick"): every tick, after the controllers and before ``write()``.
 
 It checks the measured state (limits, non-finite values, stale data, device status), bounds
 the controllers' command in place (:mod:`rtctl.safety.limits`), runs the interference
@@ -15,7 +15,10 @@ Stops:
   which the verdict turns DEACTIVATE;
 * an e-stop (``estop()``) or a device asking to be deactivated is a category-1 stop:
   damping, then DEACTIVATE once every joint is slower than ``stop_velocity`` or after
-  ``estop_off_delay`` s, whichever comes first (``estop_off_delay = 0``: category 0).
+  ``estop_off_delay`` s, whichever comes first (``estop_off_delay = 0``: category 0);
+* a normal end (``stop()``: the duration reached, ``rtctl stop``, SIGTERM) stops the same
+  way but is not a fault: nothing latches, the event is ``stop`` at info level, and
+  :meth:`summary` reports it under ``stop`` with ``faulted`` false.
 
 ``reset()`` clears each latched fault whose cause is gone (position back in range, data
 fresh again, device OK …; e-stops and controller faults are cleared by the reset itself).
@@ -93,6 +96,7 @@ class SafetyStage:
         self._latched = self.iw[k.LATCHED]  # fault bits per joint, [n]: robot-wide
         self._clear_latch()
         self._t, self._tick = 0.0, 0
+        self.stop_reason: str | None = None  # set by stop(): the run is ending normally
         self._state = None
         self._statuses = self._ok_statuses
 
@@ -133,9 +137,9 @@ class SafetyStage:
             self._latch_nonfinite_command(command, "")
         if not controller_ok:
             self._latch(FaultKind.CONTROLLER, -1, math.nan, controller_error or "a controller raised")
-        if bound and not self._faulted and self.guard is not None:
+        if bound and not self._faulted and not self._stopping and self.guard is not None:
             self._run_guard(t, state, command, mode)
-        if not self._faulted:
+        if not (self._faulted or self._stopping):
             return Verdict.OK
         return self._fallback(t, qd, command)
 
@@ -165,7 +169,8 @@ class SafetyStage:
             if not done:
                 return Verdict.FALLBACK
             self._deactivated = True
-            self._event("deactivate", reason="stopped" if self._stopping else "fault_off_delay")
+            self._event("deactivate", "warning" if self._faulted else "info",
+                        reason="stopped" if self._stopping else "fault_off_delay")
         k.fallback(int(command.mode), k.FB_OFF, *args)
         return Verdict.DEACTIVATE
 
@@ -174,13 +179,29 @@ class SafetyStage:
         """Latch an e-stop (category 1, see the module doc); takes effect at the next check()."""
         self._latch(FaultKind.ESTOP, -1, math.nan, reason)
 
+    def stop(self, reason: str) -> None:
+        """Begin a controlled stop that is not a fault (the run's normal end): damping that
+        carries the arm's weight, then DEACTIVATE, as an e-stop; nothing latches. Takes effect
+        at the next check(); a second call changes nothing."""
+        if self.stop_reason is not None:
+            return
+        self.stop_reason = reason
+        self._event("stop", "info", reason=reason)
+        if not self._stopping:
+            self._stopping = True
+            self._t_stop = self._t
+            if not self._faulted:
+                self._snapshot_hold()
+
     def reset(self) -> bool:
         """Clear the latched faults whose cause is gone; True when none is left. After True,
         the loop resets its controllers (and re-activates the devices if it had deactivated
-        them) before they take over again."""
+        them) before they take over again. After stop() it changes nothing: the run is ending."""
+        if self.stop_reason is not None:
+            return False
         keep = [f for f in self.faults if not self._cause_gone(f)]
         cleared = [f for f in self.faults if f not in keep]
-        self._event("reset", cleared=[f.kind.name.lower() for f in cleared],
+        self._event("reset", "warning", cleared=[f.kind.name.lower() for f in cleared],
                     remaining=[f.as_dict() for f in keep])
         if keep:
             self.faults = keep
@@ -203,9 +224,11 @@ class SafetyStage:
         return self._deactivated
 
     def summary(self) -> dict:
-        """JSON-able: latched faults, events, clamp counts per joint."""
+        """JSON-able (non-finite values stay floats: serialise with :mod:`rtctl.jsonout`):
+        latched faults, the normal stop if one began, events, clamp counts per joint."""
         return {
             "faulted": self._faulted, "deactivated": self._deactivated,
+            "stop": None if self.stop_reason is None else {"reason": self.stop_reason, "t": self._t_stop},
             "faults": [f.as_dict() for f in self.faults],
             "events": list(self.events), "events_dropped": self.events_dropped,
             "clamps": {"torque": self.iw[k.CLAMP_TORQUE, :self.n].tolist(),
@@ -269,7 +292,7 @@ class SafetyStage:
         if kind & STOPPING and not self._stopping:
             self._stopping = True
             self._t_stop = self._t
-        self._event("fault", **fault.as_dict())
+        self._event("fault", "warning", **fault.as_dict())
 
     def _snapshot_hold(self):
         if self._state is None:
@@ -280,7 +303,7 @@ class SafetyStage:
             try:
                 self.fb[k.TAU_HOLD] = self.gravity(q.copy())
             except Exception as e:  # hold without it rather than not at all
-                self._event("gravity_failed", reason=f"{type(e).__name__}: {e}")
+                self._event("gravity_failed", "warning", reason=f"{type(e).__name__}: {e}")
 
     def _cause_gone(self, f: Fault) -> bool:
         st, j = self._state, f.joint
@@ -299,14 +322,14 @@ class SafetyStage:
             return bool(self._statuses[self.device_of_joint[j]] == 0)
         return True  # non-finite command: the controller is reset by the loop
 
-    def _event(self, name: str, **fields):
+    def _event(self, name: str, level: str, **fields):
         event = {"event": name, "t": self._t, "tick": self._tick, **fields}
         if len(self.events) < _MAX_EVENTS:
             self.events.append(event)
         else:
             self.events_dropped += 1
         if self.log_events:
-            log.warning(name, **{a: b for a, b in event.items() if a != "event"})
+            getattr(log, level)(name, **{a: b for a, b in event.items() if a != "event"})
         if self.on_event is not None:
             try:
                 self.on_event(event)

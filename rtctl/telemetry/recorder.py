@@ -1,6 +1,6 @@
 """Recorder: the loop's side of telemetry — one row per tick into preallocated shared blocks.
 
-Design (DESIGN §2: no CPU-bound Python thread in the loop's process). Rows are copied into a
+Design (docs/architecture.md, "Process model": no CPU-bound Python thread in the loop's process). Rows are copied into a
 ring of blocks in shared memory; a separate *writer process* (:mod:`rtctl.telemetry.writer`)
 serialises full blocks to the file. Serialising in the loop thread at block boundaries was
 measured too (``rtctl bench telemetry``): packing a 500-row 6-DoF block is ~0.15 ms and its

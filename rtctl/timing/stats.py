@@ -40,6 +40,23 @@ def bucket_bounds(i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return low, np.int64(1) << shift
 
 
+def percentiles_of(counts, max_ns: float) -> dict:
+    """count, p50, p99, p99_9, max of a histogram in this layout (``counts`` per bucket, the
+    largest value ``max_ns`` exact), in ns (None when it is empty)."""
+    counts = np.asarray(counts, dtype=np.int64)
+    n = int(counts.sum())
+    out = {"count": n}
+    if n == 0:
+        return out | {name: None for name, _, _ in PERCENTILES} | {"max": None}
+    cum = np.cumsum(counts)
+    for name, num, den in PERCENTILES:
+        rank = -(-n * num // den)  # ceil(n·q) in integers: the inverted-CDF order statistic
+        low, width = bucket_bounds(np.searchsorted(cum, rank))
+        out[name] = min(float(low + (width - 1) / 2), float(max_ns))
+    out["max"] = float(max_ns)
+    return out
+
+
 class LoopStats:
     """Per-tick timing statistics: wake lateness, whole-tick compute time and each phase's.
 
@@ -100,18 +117,12 @@ class LoopStats:
     def percentiles_ns(self, row: str) -> dict:
         """count, p50, p99, p99_9, max of one row, in ns (None when the row is empty)."""
         r = self.rows.index(row)
-        counts = np.asarray(self._counts[r * N_BUCKETS:(r + 1) * N_BUCKETS], dtype=np.int64)
-        n = int(counts.sum())
-        out = {"count": n}
-        if n == 0:
-            return out | {name: None for name, _, _ in PERCENTILES} | {"max": None}
-        cum = np.cumsum(counts)
-        for name, num, den in PERCENTILES:
-            rank = -(-n * num // den)  # ceil(n·q) in integers: the inverted-CDF order statistic
-            low, width = bucket_bounds(np.searchsorted(cum, rank))
-            out[name] = min(float(low + (width - 1) / 2), float(self._max[r]))
-        out["max"] = float(self._max[r])
-        return out
+        return percentiles_of(self._counts[r * N_BUCKETS:(r + 1) * N_BUCKETS], self._max[r])
+
+    def copy_counts(self, row: str, out: np.ndarray) -> None:
+        """The row's histogram (N_BUCKETS counts) into ``out``: a snapshot to diff later."""
+        r = self.rows.index(row)
+        out[:] = self._counts[r * N_BUCKETS:(r + 1) * N_BUCKETS]
 
     def summary(self, wall_time_s: float, period_s: float, realtime_factor: float) -> dict:
         """JSON-able digest in µs: counts, percentiles, overruns, achieved rate."""

@@ -1,5 +1,5 @@
 """The CAN transports the back-to-back tests run on, each as a Link: a python-can bus on the
-master side and the emulated drives (MitDriveBus) on the far side of the wire."""
+master side and the emulated drives (MitDriveBus, Cia402DriveBus) on the far side of the wire."""
 import errno
 import socket
 import threading
@@ -9,6 +9,7 @@ import can
 import pytest
 
 from drivers.protocols import mit
+from hil_sim.cia402_drive import stand_in_cia402_bus
 from hil_sim.mit_drive import pump, serve_python_can, stand_in_bus
 from hil_sim.slcan import SlcanAdapter
 from hil_sim.socketcand import SocketcandServer
@@ -25,10 +26,14 @@ class Link:
     def send(self, arbitration_id, data):
         self.bus.send(can.Message(arbitration_id=arbitration_id, data=data, is_extended_id=False))
 
-    def collect(self, n, timeout=2.0):
-        """Up to n frames (the drives answer at once; the timeout only bounds a failure)."""
+    def pump(self):
+        """Lock-step (virtual): let the drives handle what was sent; elsewhere they serve themselves."""
         if self._peer is not None:
             pump(self.drives, self._peer)
+
+    def collect(self, n, timeout=2.0):
+        """Up to n frames (the drives answer at once; the timeout only bounds a failure)."""
+        self.pump()
         frames = []
         while len(frames) < n and (msg := self.bus.recv(timeout)) is not None:
             frames.append(msg)
@@ -36,8 +41,7 @@ class Link:
 
     def quiet(self, wait=0.05):
         """True when nothing more arrives (an extra reply would be a protocol violation)."""
-        if self._peer is not None:
-            pump(self.drives, self._peer)
+        self.pump()
         return self.bus.recv(wait) is None
 
     def exchange(self, frames):
@@ -70,9 +74,16 @@ def _socketcan_skip_reason():
 
 @pytest.fixture(params=TRANSPORTS)
 def link(request):
-    kind = request.param
-    ids = [1, 2, 3] if kind == "slcan" else [1, 2, 3, 4, 5, 6]  # slcan carries 3 joints at 1 kHz, not 6
-    drives = stand_in_bus(ids, timeout_s=10.0)  # the watchdog test shortens it
+    ids = [1, 2, 3] if request.param == "slcan" else [1, 2, 3, 4, 5, 6]  # slcan carries 3 joints at 1 kHz, not 6
+    yield from _open_link(request.param, stand_in_bus(ids, timeout_s=10.0))  # the watchdog test shortens it
+
+
+@pytest.fixture(params=("virtual", "socketcand", "socketcan"))
+def cia402_link(request):
+    yield from _open_link(request.param, stand_in_cia402_bus([1, 2, 3]))
+
+
+def _open_link(kind, drives):
     stop, cleanup = threading.Event(), []
     if kind == "virtual":
         channel = f"test-{uuid.uuid4()}"
@@ -81,7 +92,7 @@ def link(request):
         cleanup.append(peer.shutdown)
         yield Link(kind, bus, drives, lockstep_peer=peer)
     elif kind == "socketcand":
-        server = SocketcandServer(drives)
+        server = SocketcandServer([drives])
         thread = threading.Thread(target=server.serve_forever, daemon=True)
         thread.start()
         host, port = server.address

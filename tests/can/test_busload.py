@@ -57,8 +57,8 @@ def test_spec_numbers():
     assert busload.bus_load("arm", "mit", 6, 500, 1_000_000).load == pytest.approx(0.75)
     three = busload.bus_load("arm", "mit", 3, 1000, 1_000_000)
     assert three.load == pytest.approx(0.75) and three.time_per_tick_s == pytest.approx(750e-6)
-    # CiA 402: per joint RPDO 4 B (95 bits) + TPDO 8 B (135), one SYNC (55) per bus
-    assert busload.bus_load("x", "cia402", 2, 1000, 1_000_000).bits_per_tick == 2 * (95 + 135) + 55
+    # CiA 402: per joint RPDO 4 B (95 bits) + TPDO1 8 B (135) + TPDO2 4 B (95), one SYNC (55) per bus
+    assert busload.bus_load("x", "cia402", 2, 1000, 1_000_000).bits_per_tick == 2 * (95 + 135 + 95) + 55
 
 
 def test_six_joints_at_1khz_on_one_bus_refused_with_ways_out():

@@ -2,67 +2,35 @@
 (hil_sim.mit_drive) on the far end, pumped right after each send, on a clock the test owns."""
 import threading
 import time
-import uuid
 
 import can
 import numpy as np
 import pytest
 
-from drivers.can_bus import BusOptions
 from drivers.can_joints import MitCanJointGroup
 from drivers.protocols.mit import DRIVE_MODELS, KATZ
 from drivers.protocols.mit_layout import MitJoint
-from hil_sim.mit_drive import MappedJointPort
 from hil_sim.mit_drive import MitDrive, MitDriveBus, pump
+from lockstep_rig import LockStep, rigs, silence_second_drive, virtual_bus
 from rtctl.errors import HardwareError
 from rtctl.hal import CommandMode, Status
 
 P_LSB, V_LSB, T_LSB = 25 / 65535, 130 / 4095, 36 / 4095
 
 
-class Rig(MitCanJointGroup):
-    """Joints whose 'plant' is arrays the test sets (q, qd) and reads (tau)."""
-
+class Rig(LockStep, MitCanJointGroup):
     def __init__(self, joints, **kw):
-        channel = f"test-{uuid.uuid4().hex}"
-        bus = BusOptions({"interface": "virtual", "channel": channel}, 1_000_000, False,
-                         ("virtual", channel, None, None), channel)
         kw = {"reply_deadline": 0.0, "exchange_timeout": 0.0, "period": 0.001, **kw}
-        super().__init__("arm", joints, bus, **kw)
-        n = len(joints)
-        self.q, self.qd, self.tau = np.zeros(n), np.zeros(n), np.zeros(n)
-        self.drive_list = [MitDrive(j.drive_id, MappedJointPort(self.q, self.qd, self.tau, k, j.direction, j.offset),
-                                    j.model) for k, j in enumerate(joints)]
-        self.drives = MitDriveBus(self.drive_list)
-        self.peer = can.Bus(interface="virtual", channel=channel)
-        self.now = 0.0
-
-    def _after_send(self):
-        pump(self.drives, self.peer, now=self.now)
-
-    def _clock(self):
-        return self.now
-
-    def tick(self, dt=0.001):
-        """One loop tick: read, then write the present command."""
-        self.now += dt
-        return self.read(self.now), self.write(self.now)
+        super().__init__("arm", joints, virtual_bus(), **kw)
+        self._attach(lambda j, port: MitDrive(j.drive_id, port, j.model), MitDriveBus)
 
 
 @pytest.fixture
 def rig():
-    made = []
-
     def make(joints=None, **kw):
-        joints = joints or [MitJoint("a", 1, KATZ), MitJoint("b", 2, KATZ)]
-        r = Rig(joints, **kw)
-        made.append(r)
-        return r
+        return Rig(joints or [MitJoint("a", 1, KATZ), MitJoint("b", 2, KATZ)], **kw)
 
-    yield make
-    for r in made:
-        r.close()
-        r.peer.shutdown()
+    yield from rigs(make)
 
 
 def test_configure_reads_the_state_without_enabling_any_drive(rig):
@@ -153,13 +121,8 @@ def test_replies_are_awaited_for_the_reply_deadline_as_a_fraction_of_the_period(
 
 def test_a_missing_reply_is_stale_and_the_stale_limit_is_an_error(rig):
     r = rig()
-    r.activate()
-    r.tick()
-    r.drive_list[1].faults.silent = True
-    statuses = [r.tick()[0] for _ in range(4)]
     # the reply of the silencing tick's commands is missing at the next read: stale 1, 2, 3 → ERROR
-    assert statuses == [Status.OK, Status.OK, Status.OK, Status.ERROR]
-    assert list(r.state.fresh) == [True, False]
+    assert silence_second_drive(r) == [Status.OK, Status.OK, Status.OK, Status.ERROR]
     assert r.counters["missing_replies"] == 4 and "drive(s) 0x2 " in r.last_error  # only the silent one
     r.drive_list[1].faults.silent = False
     r.tick()

@@ -29,3 +29,8 @@ def two_link():
 @pytest.fixture(scope="session")
 def random_chain():
     return make_random_chain
+
+
+@pytest.fixture(scope="session")
+def puma_arm():
+    return load_robot(ROBOTS / "puma560_arm.toml")

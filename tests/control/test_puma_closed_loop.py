@@ -1,5 +1,5 @@
 """PUMA 560 in closed loop with the plant simulator at 1 kHz, both laws, from estimates off by
-±30–50 % (per link) and from zeros (spec §5, last bullet).
+±30–50 % (per link) and from zeros (docs/cstar_slotine_li.md, "Closed loop").
 
 The plant is a rigid body with neither friction nor armature, so the law models it exactly
 and V = ½ sᵀ H s + ½ π̃ᵀ P⁻¹ π̃ must not grow (dV/dt = −sᵀ K_D s). The bare PUMA's wrist is

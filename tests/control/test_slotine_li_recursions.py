@@ -1,4 +1,4 @@
-"""Both laws' recursions against their matrix forms (spec §3): with K_D = 0,
+"""Both laws' recursions against their matrix forms (docs/cstar_slotine_li.md): with K_D = 0,
 C*: τ = H q̈_r + C* q̇_r + G; classic: τ = H q̈_r + C q̇_r + G with the Christoffel C; and
 dπ̂/dt = −P Yᵀ s with the explicit regressor of the matching factorisation."""
 from __future__ import annotations

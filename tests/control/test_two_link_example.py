@@ -1,4 +1,4 @@
-"""Slotine & Li's two-link example (spec §6): horizontal plane, Λ = 20, K_D = 100, â(0) = 0,
+"""Slotine & Li's two-link example (docs/cstar_slotine_li.md, "Closed loop"): horizontal plane, Λ = 20, K_D = 100, â(0) = 0,
 q_d1 = 30°(1 − cos 2πt), q_d2 = 45°(1 − cos 2πt).
 
 Published (RK4, 1 kHz, the book's 4 lumped parameters a1..a4, gains diag(0.03, 0.05, 0.1, 0.3)):

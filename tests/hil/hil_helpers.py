@@ -16,6 +16,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests" / "runtime"))
 from runtime_helpers import Daemon, rtctl  # noqa: E402,F401  (re-exported)
 
+from rtctl.control_socket import request  # noqa: E402
 from rtctl.telemetry import read  # noqa: E402
 
 CONFIGS = ROOT / "configs"
@@ -133,3 +134,47 @@ def wait_for(predicate, timeout: float = 30.0, step: float = 0.05) -> bool:
             return True
         time.sleep(step)
     return False
+
+
+def loop_time(daemon) -> float:
+    """The running loop's time (−1 before it runs: the control socket answers from the loop only)."""
+    try:
+        return request(daemon.socket, "status", timeout=0.5)["t"]
+    except Exception:
+        return -1.0
+
+
+def run_with_a_frozen_loop(config, tmp_path: Path, env: dict, pause: float = 0.3):
+    """``rtctl run`` stopped (SIGSTOP) for ``pause`` s once its loop has run 0.5 s with the drives
+    enabled, then resumed to its end; (returncode, summary, telemetry, stderr)."""
+    telemetry = tmp_path / "run.msgpack"
+    saved = dict(os.environ)
+    os.environ.update(env)  # the Daemon helper inherits the environment
+    try:
+        d = Daemon(config, tmp_path, "--duration", 20, "--telemetry", telemetry)
+    finally:
+        os.environ.clear()
+        os.environ.update(saved)
+    try:
+        assert wait_for(lambda: loop_time(d) > 0.5 or d.proc.poll() is not None)
+        d.proc.send_signal(signal.SIGSTOP)  # the loop freezes mid-run
+        time.sleep(pause)
+        d.proc.send_signal(signal.SIGCONT)
+        code, out, err = d.finish(timeout=60)
+    finally:
+        d.kill()
+    return code, json.loads(d.summary.read_text()), read(telemetry), err
+
+
+def check_reopened_and_stopped(summary, device: str = "arm", within: float = 2.0) -> tuple[float, float]:
+    """After a dropped link: ``device`` lost its bus, reopened it, and the safety stage turned the
+    drives off within ``within`` s of the loss (loop time); (reopened after, off after)."""
+    dev = summary["devices"][device]
+    events = {e["event"]: e for e in reversed(dev["events"])}  # the first of each kind
+    assert dev["counters"]["bus_errors"] >= 1 and dev["counters"]["reconnects"] >= 1, dev["counters"]
+    assert events["bus_back"]["t"] > events["bus_lost"]["t"]
+    stop = [e for e in summary["safety"]["events"] if e["event"] == "deactivate"][0]
+    reopened, off = events["bus_back"]["t"] - events["bus_lost"]["t"], stop["t"] - events["bus_lost"]["t"]
+    print(f"link lost → reopened after {reopened:.3f} s, drives off after {off:.3f} s (loop time)")
+    assert off <= within
+    return reopened, off

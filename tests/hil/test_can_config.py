@@ -52,7 +52,9 @@ def test_two_devices_on_the_same_bus_count_together(write_config):
 
 def test_option_errors_name_the_key(write_config):
     unset = can_config(500, ("can0", (0, 6))).replace('channel = "can0"', 'channel = "${RTCTL_TEST_UNSET_VAR}"')
-    result = check(write_config, unset)
+    checked = check(write_config, unset)  # check lists it; run needs it
+    assert checked.returncode == 0 and "RTCTL_TEST_UNSET_VAR" in checked.stdout
+    result = rtctl("run", write_config(unset))
     assert result.returncode == 2 and "devices[0].bus.channel" in result.stderr and "RTCTL_TEST_UNSET_VAR" in result.stderr
     clash = check(write_config, can_config(500, ("can0", (0, 6)), extra="ids = [1, 2, 3, 3, 5, 6]\n"))
     assert clash.returncode == 2 and "devices[0].ids" in clash.stderr
@@ -82,3 +84,38 @@ def test_embedded_can_simulator_is_bit_for_bit_reproducible(write_config, tmp_pa
     # tracking through the codec (one period of measurement delay, quantisation): measured
     # max 4.6 mrad on the shipped trajectory, vs 0.12 mrad for the direct simulator
     assert sa["tracking_error_rad"]["max_all"] < 0.02
+
+
+def cia402_config(rate_hz, joints=6, extra=""):
+    """A run config whose first ``joints`` joints sit on CiA 402 drives on one bus (the rest on MIT)."""
+    text = (f'[robot]\ndescription = "{PUMA}"\n[loop]\nrate_hz = {rate_hz}\n[[devices]]\nname = "arm"\n'
+            f'driver = "cia402"\njoints = {json.dumps(JOINTS[:joints])}\nrated_torque = 30.0\n{extra}'
+            f'[devices.bus]\ninterface = "socketcan"\nchannel = "can0"\nbitrate = 1000000\n')
+    if joints < 6:
+        text += (f'[[devices]]\nname = "wrist"\ndriver = "mit_can"\njoints = {json.dumps(JOINTS[joints:])}\n'
+                 f'[devices.bus]\ninterface = "socketcan"\nchannel = "can1"\nbitrate = 1000000\n')
+    return text
+
+
+def test_check_computes_the_cia402_pdo_load(write_config):
+    # per drive 95 + 135 + 95 bits (RPDO1 4 B, TPDO1 8 B, TPDO2 4 B), one SYNC of 55 bits
+    six = check(write_config, cia402_config(500))
+    assert six.returncode == 2 and "100 %" in six.stderr and "2005 bits/tick" in six.stderr
+    # 0.8 · 1e6 / 2005 = 399 Hz; (0.8 · 1e6 / 500 − 55) / 325 = 4.75 drives per bus
+    assert "≤ 399 Hz" in six.stderr and "2 buses (≤ 4 per bus at 500 Hz)" in six.stderr
+    three = check(write_config, cia402_config(500, joints=3))
+    assert three.returncode == 0, three.stderr
+    rows = [line.split() for line in three.stdout.splitlines() if line.startswith("can")]
+    assert rows == [["can0", "cia402", "3", "500", "1000", "1030", "52%"], ["can1", "mit", "3", "500", "1000", "750", "38%"]]
+
+
+def test_cia402_option_errors_name_the_key(write_config):
+    cases = {
+        "devices[0].ids": cia402_config(500, 3, extra="ids = [1, 1, 2]\n"),
+        "devices[0].eds": cia402_config(500, 3, extra='eds = "no/such.eds"\n'),
+        "devices[0].heartbeat_timeout": cia402_config(500, 3, extra="heartbeat_period = 0.1\nheartbeat_timeout = 0.05\n"),
+        "devices[0].drives.elbow.rated_torque": cia402_config(500, 3, extra="[devices.drives.elbow]\nrated_torque = -1.0\n"),
+    }
+    for key, text in cases.items():
+        result = check(write_config, text)
+        assert result.returncode == 2 and key in result.stderr and "Traceback" not in result.stderr, (key, result.stderr)

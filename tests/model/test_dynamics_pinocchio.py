@@ -1,4 +1,4 @@
-"""Dynamics against Pinocchio (spec §5): RNEA, H, G, the standard regressor, the Christoffel C
+"""Dynamics against Pinocchio (docs/cstar_slotine_li.md, "How it is verified"): RNEA, H, G, the standard regressor, the Christoffel C
 and forward dynamics, over hundreds of seeded random states, error ≤ 1e-9 (relative to the
 size of the reference where it exceeds 1).
 

@@ -1,4 +1,4 @@
-"""Properties of the dynamics that need no reference implementation (spec §5): the paper's
+"""Properties of the dynamics that need no reference implementation (docs/cstar_slotine_li.md): the paper's
 Propositions 1 and 2, C* q̇ = C q̇ = RNEA(q, q̇, 0) − G, Y π for both regressors, Ḣ against finite
 differences, the two-link arm's published closed form, and the hot-path forms."""
 import numpy as np

@@ -1,4 +1,4 @@
-"""(O, A, T) angles about the orientation reference frame (spec §1, eqs. 8-15)."""
+"""(O, A, T) angles about the orientation reference frame (docs/kinematics.md, eqs. 8-15)."""
 from __future__ import annotations
 
 import math

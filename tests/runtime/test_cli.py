@@ -7,7 +7,7 @@ import pytest
 from rtctl.model import dynamics, kinematics, load_robot
 from runtime_helpers import PUMA, rtctl
 
-SUBCOMMANDS = ["run", "check", "model", "status", "stop", "estop", "reset", "move", "plot", "bench", "doctor"]
+SUBCOMMANDS = ["run", "check", "model", "status", "stop", "estop", "reset", "move", "plot", "export", "bench", "doctor"]
 
 
 @pytest.mark.parametrize("sub", SUBCOMMANDS)

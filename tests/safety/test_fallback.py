@@ -112,3 +112,49 @@ def test_a_nonfinite_measurement_on_any_joint_is_caught_and_names_that_joint(joi
     assert r.step() == Verdict.FALLBACK
     assert [(f.kind, f.joint) for f in r.stage.faults] == [(FaultKind.NONFINITE_STATE, joint)]
     assert np.all(np.isfinite(r.command.tau_ff))
+
+
+def test_the_damped_fallback_in_impedance_mode_carries_the_clamped_weight():
+    weight = np.array([-30.0, 5.0, 1.0])  # joint 0 beyond its 10 N·m limit
+    r = Rig(fallback="damp", damping=3.0, gravity=lambda q: weight)
+    r.command.mode = CommandMode.IMPEDANCE
+    r.state.position[:] = [0.2, 0.3, 0.4]
+    r.command.tau_ff[1] = math.nan
+    assert r.step() == Verdict.FALLBACK
+    c = r.command
+    np.testing.assert_array_equal(c.kp, 0.0)
+    np.testing.assert_array_equal(c.kd, 3.0)
+    np.testing.assert_array_equal(c.qd_des, 0.0)
+    np.testing.assert_array_equal(c.q_des, [0.2, 0.3, 0.4])
+    np.testing.assert_array_equal(c.tau_ff, [-10.0, 5.0, 1.0])
+
+
+def test_the_off_command_is_zero_in_both_modes():
+    from rtctl.safety import kernels as k
+
+    lim = k_limits()
+    fb = np.zeros((k.N_FALLBACK_ROWS, 3))
+    fb[[k.HOLD_KP, k.HOLD_KD, k.DAMP_KD]] = 7.0
+    fb[k.TAU_HOLD] = [1.0, -2.0, 3.0]
+    for mode in (k.TORQUE, k.IMPEDANCE):
+        q, qd = np.array([0.1, 0.2, 0.3]), np.array([1.0, -1.0, 0.5])
+        q_des, qd_des, kp, kd, tau = (np.full(3, 9.0) for _ in range(5))
+        k.fallback(mode, k.FB_OFF, q, qd, q_des, qd_des, kp, kd, tau, lim, fb)
+        for name, a in zip(("qd_des", "kp", "kd", "tau_ff"), (qd_des, kp, kd, tau)):
+            np.testing.assert_array_equal(a, 0.0, err_msg=f"mode {mode}: {name}")
+
+
+def k_limits():
+    from rtctl.safety.limits import limits_table
+    from safety_rig import Q_MAX, Q_MIN, V_MAX
+
+    return limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX)
+
+
+def test_a_torque_mode_fallback_writes_a_clean_command():
+    r = Rig(hold_stiffness=100.0, damping=4.0)
+    r.command.kp[:], r.command.kd[:], r.command.q_des[:] = 50.0, 5.0, 1.0  # stale impedance fields
+    r.command.tau_ff[0] = math.inf
+    assert r.step() == Verdict.FALLBACK
+    for name in ("q_des", "qd_des", "kp", "kd"):
+        np.testing.assert_array_equal(getattr(r.command, name), 0.0, err_msg=name)

@@ -90,3 +90,69 @@ def test_limits_table_refuses_nonsense():
         limits_table(Q_MIN, Q_MAX, -V_MAX, TAU_MAX)
     with pytest.raises(ValueError):
         limits_table(Q_MIN, Q_MAX[:2], V_MAX, TAU_MAX)
+
+
+def test_the_hard_limits_are_inclusive_and_a_reset_exactly_there_clears():
+    r = Rig()
+    r.state.position[:] = [Q_MAX[0], Q_MIN[1], 0.0]  # exactly on a limit: allowed
+    assert r.step() == Verdict.OK
+    r.state.position[:] = [Q_MAX[0] + 1e-9, 0.0, Q_MIN[2] - 1e-9]
+    assert r.step() == Verdict.FALLBACK
+    assert [(f.kind, f.joint) for f in r.stage.faults] == [(FaultKind.POSITION, 0), (FaultKind.POSITION, 2)]
+    r.state.position[:] = [Q_MAX[0], 0.0, Q_MIN[2]]  # back exactly on the limits: the cause is gone
+    assert r.stage.reset()
+
+
+def test_a_velocity_fault_clears_at_exactly_the_limit():
+    r = Rig()
+    r.state.velocity[2] = -V_MAX[2] - 0.5
+    assert r.step() == Verdict.FALLBACK
+    r.state.velocity[2] = -V_MAX[2]
+    assert r.stage.reset()
+
+
+def test_impedance_fields_are_clamped_into_range_and_counted_only_when_clamped():
+    r = Rig(kp_max=500.0, kd_max=20.0, position_margin=0.1)
+    c = r.command
+    c.mode = CommandMode.IMPEDANCE
+    c.q_des[:], c.qd_des[:], c.kp[:], c.kd[:] = [0.5, -1.0, 2.0], [0.1, -0.2, 1.0], [100.0, 50.0, 10.0], [2.0, 1.0, 3.0]
+    assert r.step() == Verdict.OK  # everything in range: untouched, not counted
+    np.testing.assert_array_equal(c.kp, [100.0, 50.0, 10.0])
+    np.testing.assert_array_equal(c.kd, [2.0, 1.0, 3.0])
+    assert r.stage.summary()["clamps"]["impedance"] == [0, 0, 0]
+    c.kp[:], c.kd[:] = [-5.0, 900.0, 10.0], [-1.0, 2.0, 25.0]
+    c.q_des[:] = [-0.95, -1.95, 2.95]  # joint 0 below the soft limit -0.9 … joint 2 above 2.9
+    c.qd_des[:] = [0.1, -9.0, 1.0]
+    assert r.step() == Verdict.OK
+    np.testing.assert_array_equal(c.kp, [0.0, 500.0, 10.0])
+    np.testing.assert_array_equal(c.kd, [0.0, 2.0, 20.0])
+    np.testing.assert_allclose(c.q_des, [-0.9, -1.9, 2.9])
+    np.testing.assert_allclose(c.qd_des, [0.1, -V_MAX[1], 1.0])
+    assert r.stage.summary()["clamps"]["impedance"] == [1, 1, 1]
+
+
+def test_the_impedance_torque_predicted_at_a_soft_limit_includes_the_damper():
+    r = Rig(position_margin=0.1)
+    c = r.command
+    c.mode = CommandMode.IMPEDANCE
+    r.state.position[:] = [0.95, 0.0, 0.0]  # past joint 0's soft limit at 0.9
+    r.state.velocity[:] = [-1.0, 0.0, 0.0]
+    c.q_des[:], c.kp[:] = [0.9, 0.0, 0.0], 0.0
+    c.kd[:], c.qd_des[:] = [3.0, 0.0, 0.0], 0.0  # the damper alone pushes outward: 3 (0 − (−1)) = +3
+    assert r.step() == Verdict.OK
+    assert c.tau_ff[0] == pytest.approx(-3.0)  # shifted so that the drive's total is zero
+
+
+def test_past_a_soft_limit_an_inward_torque_of_any_size_is_kept():
+    r = Rig(position_margin=0.1)
+    r.state.position[:] = [0.95, -1.95, 0.0]
+    r.command.tau_ff[:] = [-0.5, 0.25, 0.0]  # small, inward
+    assert r.step() == Verdict.OK
+    np.testing.assert_array_equal(r.command.tau_ff, [-0.5, 0.25, 0.0])
+
+
+def test_a_zero_velocity_limit_is_refused_and_the_default_factor_is_one():
+    with pytest.raises(ValueError):
+        limits_table(Q_MIN, Q_MAX, np.array([2.0, 0.0, 4.0]), TAU_MAX)
+    lim = limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX)
+    np.testing.assert_array_equal(lim[4], V_MAX)  # the velocity row (V_LIM): the robot's limits as they are

@@ -3,6 +3,7 @@ a fault never leaves a drive enabled without something in charge of it."""
 import math
 
 import numpy as np
+import pytest
 import structlog
 from hypothesis import given, settings, strategies as st
 
@@ -42,6 +43,35 @@ def test_estop_with_zero_delay_is_category_0():
     r.state.velocity[:] = 1.0
     r.stage.estop()
     assert r.step() == Verdict.DEACTIVATE
+
+
+def test_a_normal_stop_damps_like_an_estop_but_latches_nothing():
+    r = Rig(estop_off_delay=0.003, damping=2.0)
+    r.state.velocity[:] = [1.0, -1.0, 0.5]
+    r.step()
+    with structlog.testing.capture_logs() as logs:
+        r.stage.stop("duration reached")
+        r.stage.stop("signal SIGTERM")  # the first reason stands
+        verdicts = [r.step() for _ in range(5)]
+    np.testing.assert_array_equal(r.command.tau_ff, 0.0)
+    assert verdicts == [Verdict.FALLBACK] * 2 + [Verdict.DEACTIVATE] * 3  # the same timing as an e-stop
+    assert not r.stage.faulted and r.stage.faults == []
+    assert [(e["event"], e["log_level"]) for e in logs] == [("stop", "info"), ("deactivate", "info")]
+    summary = r.stage.summary()
+    assert summary["faulted"] is False and summary["stop"] == {"reason": "duration reached", "t": 0.0}
+    assert not r.stage.reset()  # the run is ending: nothing re-arms it
+    assert r.step() == Verdict.DEACTIVATE
+
+
+def test_a_fault_during_a_normal_stop_is_still_a_fault():
+    r = Rig(estop_off_delay=1.0)
+    r.state.velocity[:] = 0.5
+    r.stage.stop("stop requested")
+    r.state.position[0] = 1.5  # past q_max during the stop
+    with structlog.testing.capture_logs() as logs:
+        assert r.step() == Verdict.FALLBACK
+    assert r.stage.faulted and r.stage.faults[0].kind == FaultKind.POSITION
+    assert logs[0]["event"] == "fault" and logs[0]["log_level"] == "warning"
 
 
 def test_ordinary_fault_holds_until_fault_off_delay():
@@ -161,3 +191,100 @@ def test_no_drive_is_left_enabled_without_a_controller(seq, fallback, fault_off_
             np.testing.assert_allclose(tau, np.clip(law, -TAU_MAX, TAU_MAX))
         else:
             np.testing.assert_allclose(tau, np.clip(before, -TAU_MAX, TAU_MAX))
+
+
+def test_the_fault_off_delay_counts_from_the_fault_not_from_the_start():
+    r = Rig(fault_off_delay=5 / 1024)
+    r.dt = 1 / 1024  # exact in binary: the times below are exact
+    for _ in range(10):
+        assert r.step() == Verdict.OK
+    r.command.tau_ff[0] = math.nan  # fault at tick 10
+    verdicts = [r.step() for _ in range(8)]
+    assert verdicts == [Verdict.FALLBACK] * 5 + [Verdict.DEACTIVATE] * 3  # off at tick 15
+    assert [e.get("reason") for e in r.stage.events if e["event"] == "deactivate"] == ["fault_off_delay"]
+
+
+def test_the_default_estop_delay_is_a_fifth_of_a_second():
+    r = Rig()
+    r.dt = 1 / 1024
+    r.state.velocity[:] = 0.5  # still moving: the delay, not the stillness, ends the stop
+    r.step()
+    r.stage.estop()  # latched at t = 0 (the last check's time)
+    verdicts = [r.step() for _ in range(210)]
+    assert verdicts.index(Verdict.DEACTIVATE) + 1 == math.ceil(0.2 * 1024)  # the first tick at t ≥ 0.2 s
+    assert [e.get("reason") for e in r.stage.events if e["event"] == "deactivate"] == ["stopped"]
+
+
+def test_robot_wide_faults_have_no_joint():
+    class Raising:
+        reason = ""
+
+        def check(self, t, state, command):
+            raise RuntimeError("zone table corrupt")
+
+    r = Rig(guard=Raising())
+    assert r.step() == Verdict.FALLBACK
+    r.stage.estop("button")
+    assert [(f.kind, f.joint) for f in r.stage.faults] == [(FaultKind.GUARD, -1), (FaultKind.ESTOP, -1)]
+
+
+def test_faults_on_different_joints_in_different_ticks_are_each_recorded():
+    r = Rig()
+    r.state.position[0] = 1.5
+    assert r.step() == Verdict.FALLBACK
+    r.state.position[2] = -3.5
+    r.step()
+    assert [(f.kind, f.joint) for f in r.stage.faults] == [(FaultKind.POSITION, 0), (FaultKind.POSITION, 2)]
+
+
+def test_after_a_reset_the_same_fault_latches_again():
+    r = Rig()
+    r.state.position[1] = 2.5
+    assert r.step() == Verdict.FALLBACK
+    r.state.position[1] = 0.0
+    assert r.stage.reset() and r.step() == Verdict.OK
+    r.state.position[1] = 2.5
+    assert r.step() == Verdict.FALLBACK
+    assert len(r.stage.faults) == 1 and r.stage.faults[0].tick == 2
+
+
+def test_a_partial_reset_keeps_what_remains_and_still_latches_new_faults():
+    r = Rig()
+    r.state.position[:] = [1.5, 0.0, 0.0]
+    r.state.velocity[:] = [0.0, 0.0, 9.0]
+    r.step()
+    r.state.position[0] = 0.0  # joint 0 is back, joint 2 is still too fast
+    assert not r.stage.reset()
+    assert [(f.kind, f.joint) for f in r.stage.faults] == [(FaultKind.VELOCITY, 2)]
+    r.state.position[0] = 1.5  # joint 0 leaves its range again: a new record
+    r.step()
+    assert [(f.kind, f.joint) for f in r.stage.faults] == [(FaultKind.VELOCITY, 2), (FaultKind.POSITION, 0)]
+
+
+@pytest.mark.parametrize("q, qd, value", [(math.nan, 0.0, math.nan), (0.1, math.inf, math.inf),
+                                           (-math.inf, math.nan, -math.inf)])
+def test_a_nonfinite_state_fault_records_the_bad_value(q, qd, value):
+    r = Rig()
+    r.state.position[1], r.state.velocity[1] = q, qd
+    r.step()
+    (f,) = r.stage.faults
+    assert f.kind == FaultKind.NONFINITE_STATE and f.joint == 1
+    assert f.value == value or (math.isnan(value) and math.isnan(f.value))
+
+
+def test_a_nonfinite_command_fault_is_cleared_by_the_reset():
+    r = Rig()
+    r.command.tau_ff[2] = math.nan
+    assert r.step() == Verdict.FALLBACK
+    assert r.stage.reset() and not r.stage.faults
+
+
+def test_events_are_capped_and_the_rest_counted():
+    from rtctl.safety.stage import _MAX_EVENTS
+
+    r = Rig()
+    r.stage.log_events = False
+    for i in range(_MAX_EVENTS + 3):
+        r.stage._event("probe", i=i)
+    assert len(r.stage.events) == _MAX_EVENTS == 1000 and r.stage.events_dropped == 3
+    assert r.stage.events[-1]["i"] == _MAX_EVENTS - 1

@@ -1,0 +1,110 @@
+"""Event table → J-K flip-flop circuit in a PLA (synthesis steps 4 and 5).
+
+Variables of the excitation functions: the n gate bits, then the state bits Q1…Qb (minterm
+bit i = gate i, bit n + k = Q(k+1)). For each flip-flop the next-state specification of the
+flow table and the assignment (hold, exit, route step; don't-care on spare codes no route
+uses) gives J and K through the J-K excitation table of Q⁺ = J Q̄ + K̄ Q:
+
+    Q → Q⁺:  0 → 0: J = 0, K = –    0 → 1: J = 1, K = –    1 → 0: J = –, K = 1    1 → 1: J = –, K = 0
+
+The Moore outputs are functions of the state bits alone (spare codes don't-care). Each
+function is minimised exactly (:mod:`rtctl.logic.qm`); the PLA's AND plane is the set of
+distinct product terms, its OR plane which functions use each. Among the candidate
+assignments the smallest PLA wins (fewest product terms, then literals).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rtctl.logic.assign import Assignment, candidate_assignments
+from rtctl.logic.flow import FlowTable, flow_table
+from rtctl.logic.pla import Pla
+from rtctl.logic.qm import minimise
+from rtctl.logic.table import EventTable
+
+DONT_CARE = -1
+
+
+@dataclass(frozen=True)
+class Circuit:
+    flow: FlowTable
+    assignment: Assignment
+    functions: dict  # name → list of cubes over gates + state bits, in PLA output order
+    spec: np.ndarray  # [code, gates] → specified next code, or DONT_CARE
+    pla: Pla
+
+    @property
+    def table(self) -> EventTable:
+        return self.flow.table
+
+    @property
+    def n_bits(self) -> int:
+        return self.assignment.n_bits
+
+
+def next_code_spec(flow: FlowTable, a: Assignment) -> np.ndarray:
+    """[code, gates] → the next code the circuit must take one step towards (one bit away),
+    or DONT_CARE on spare codes where no route passes under that gate vector."""
+    spec = np.full((1 << a.n_bits, 1 << flow.n_gates), DONT_CARE, dtype=np.int64)
+    for s, c in a.codes.items():
+        spec[c, :] = c  # stay, and hold on every vector never seen in s
+    for (s, x), path in a.routes.items():
+        spec[path[0], x] = path[1]
+    for (c, x), nxt in a.intermediates.items():
+        spec[c, x] = nxt
+    return spec
+
+
+def excitation(spec: np.ndarray, n_gates: int, k: int):
+    """ON-sets and don't-care sets of J and K for flip-flop k: ((J_on, J_dc), (K_on, K_dc))."""
+    codes, gates = (a.ravel() for a in np.indices(spec.shape))
+    nxt = spec.ravel()
+    minterm = gates | (codes << n_gates)
+    q = codes >> k & 1
+    q_next = nxt >> k & 1
+    free = nxt == DONT_CARE
+    j_on = minterm[~free & (q == 0) & (q_next == 1)]
+    j_dc = minterm[free | (q == 1)]
+    k_on = minterm[~free & (q == 1) & (q_next == 0)]
+    k_dc = minterm[free | (q == 0)]
+    return (j_on, j_dc), (k_on, k_dc)
+
+
+def synthesise(flow: FlowTable, a: Assignment) -> Circuit:
+    ng, nb = flow.n_gates, a.n_bits
+    spec = next_code_spec(flow, a)
+    functions = {}
+    for k in range(nb):  # J1 K1 J2 K2 …: the flip-flops' inputs, then the actuator bits
+        (j_on, j_dc), (k_on, k_dc) = excitation(spec, ng, k)
+        functions[f"J{k + 1}"] = minimise(ng + nb, j_on, j_dc)
+        functions[f"K{k + 1}"] = minimise(ng + nb, k_on, k_dc)
+    spare = list(a.spare)
+    for i, name in enumerate(_output_names(flow.table, nb)):
+        on = [c for s, c in a.codes.items() if flow.table.outputs[s] >> i & 1]
+        cubes = minimise(nb, on, spare)
+        functions[name] = [(care << ng, value << ng) for care, value in cubes]  # gates don't care
+    inputs = flow.table.gates + tuple(f"Q{k + 1}" for k in range(nb))
+    return Circuit(flow, a, functions, spec, Pla.from_functions(inputs, functions))
+
+
+def _output_names(table: EventTable, nb: int) -> tuple[str, ...]:
+    """The actuator bits' names in the PLA; one that clashes with a flip-flop input (the
+    table's K1, K2 against K1…Kb) is primed, as the paper renames K1 K2 to K1' K2'."""
+    jk = {f"{p}{k + 1}" for p in "JK" for k in range(nb)}
+    return tuple(f"{n}'" if n in jk else n for n in table.actuators)
+
+
+def compile_table(table: EventTable) -> Circuit:
+    """The whole synthesis: flow table, assignment search, excitation, minimisation, PLA;
+    the candidate with the smallest PLA (fewest product terms, then literals)."""
+    flow = flow_table(table)
+    best = None
+    for a in candidate_assignments(flow):
+        circuit = synthesise(flow, a)
+        cost = (circuit.pla.n_terms, circuit.pla.n_literals)
+        if best is None or cost < best[0]:
+            best = (cost, circuit)
+    return best[1]
+

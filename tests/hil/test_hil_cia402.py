@@ -1,0 +1,140 @@
+"""HIL on CiA 402: `hil-sim` plays the PUMA 560 and its CiA 402 drives (python-canopen nodes from
+the driver's EDS) on two socketcand buses; `rtctl run` closes the loop at 500 Hz in cyclic
+synchronous torque. The fault matrix as for the MIT drives: a silent drive, a frozen loop, a
+dropped connection, corrupted TPDOs, a drive fault with its EMCY code — each ends in a
+controlled state, with every tick in the telemetry and no drive left enabled."""
+
+import numpy as np
+import pytest
+
+from hil_helpers import check_reopened_and_stopped, rtctl, run, run_with_a_frozen_loop, unless_stalled, variant
+
+pytestmark = pytest.mark.hil
+
+CONFIG = "puma560_hil_cia402.toml"
+# no fault from a machine stall (this shared VM stalls a process for 5–20 ms now and then) where
+# the test is about something else: a 100 ms RPDO deadline, 10 ticks of stale data
+TOLERANT = {"drive_timeout": 0.1}
+STALL_TOLERANT = {**TOLERANT, "stale_limit": 10, "stale_ticks": 10}
+
+
+def check_complete(summary, telemetry, sim_exit):
+    assert telemetry.rows == summary["timing"]["ticks"] == summary["telemetry"]["rows"]
+    assert all(dev["lifecycle"] == "closed" for dev in summary["devices"].values())
+    assert not any(d["enabled"] for d in sim_exit["drives"]), "a drive was left enabled"
+
+
+def test_check_prints_the_bus_load_of_the_pdo_set(tmp_path):
+    result = rtctl("check", variant(tmp_path, CONFIG), timeout=60)
+    assert result.returncode == 0, result.stderr
+    rows = [line.split() for line in result.stdout.splitlines() if line.startswith("can")]
+    # per drive RPDO 4 B + TPDO 8 B + TPDO 4 B = 95 + 135 + 95 bits, one SYNC of 55 bits per bus
+    assert rows == [["can0", "cia402", "3", "500", "1000", "1030", "52%"],
+                    ["can1", "cia402", "3", "500", "1000", "1030", "52%"]]
+    one_bus = variant(tmp_path, CONFIG, name="one.toml", channel='"can0"')  # both devices on can0
+    result = rtctl("check", one_bus, timeout=60)
+    assert result.returncode == 2 and "devices[1].bus" in result.stderr and "SYNC" in result.stderr
+
+
+def test_puma560_tracks_in_cst_over_socketcand_at_500hz(tmp_path, hil_sim):
+    config = variant(tmp_path, CONFIG, **STALL_TOLERANT)
+    sim = hil_sim(config, "--port", 0)
+    assert sim.info["channels"] == ["can0", "can1"]
+    code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=4.0)
+    sim_exit = sim.stop()
+    check_complete(summary, telemetry, sim_exit)
+    with unless_stalled(summary):
+        assert code == 0, (summary["stop_reason"], summary["timing"]["overruns"])
+    for name in ("arm", "wrist"):
+        counters = summary["devices"][name]["counters"]
+        assert counters["malformed_replies"] == 0 and counters["bus_errors"] == 0 and counters["emcy"] == 0
+        assert counters["cycles"] == summary["timing"]["ticks"] and counters["heartbeats"] > 0
+    # one SYNC per bus per tick: the lock-step plant advanced once per tick
+    assert sim_exit["cycles"] == summary["timing"]["ticks"]
+    assert all(d["counters"]["syncs"] >= summary["timing"]["ticks"] for d in sim_exit["drives"])
+    # measured max 3.4-7.8 mrad, RMS 0.3-0.6 mrad on this machine under others' load (the larger
+    # values with overruns: a skipped period jumps the reference ahead)
+    tracking = summary["tracking_error_rad"]
+    print(f"CST tracking: max {tracking['max_all']:.4f} rad, rms {tracking['rms_all']:.4f} rad, "
+          f"overruns {summary['timing']['overruns']}/{summary['timing']['ticks']}")
+    with unless_stalled(summary):
+        assert tracking["max_all"] < 0.03 and tracking["rms_all"] < 0.005, tracking
+    assert np.all(np.ptp(telemetry["q"], axis=0)[:3] > np.radians(20))  # it did move
+
+
+def test_a_silent_drive_is_a_safe_stop_within_3_ticks(tmp_path, hil_sim):
+    config = variant(tmp_path, CONFIG, **TOLERANT)
+    sim = hil_sim(config, "--port", 0, "--fault", "silent:3@500")
+    code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=3.0)
+    sim_exit = sim.stop()
+    assert code == 3, err[-3000:]
+    check_complete(summary, telemetry, sim_exit)
+    stale = [e for e in summary["devices"]["arm"]["events"] if e["event"] == "stale"][0]
+    faults = summary["safety"]["faults"]
+    first = faults[0]
+    at_first = {(f["kind"], f["joint"]) for f in faults if f["tick"] == first["tick"]}
+    assert {("device_error", 0), ("stale", 2)} <= at_first, faults  # the elbow: node 3
+    after = np.count_nonzero((telemetry["t"] > stale["missing_since"]) & (telemetry["t"] <= first["t"]))
+    print(f"silent CiA 402 drive: fallback {after} ticks after its first missing TPDOs")
+    assert after == 3, (first, stale)
+    # node 3 heard nothing more: its RPDO deadline took its torque off; the others were disabled
+    offs = {e["drive"]: e["cause"] for e in sim.of("motor_off")}
+    assert offs[3] == "watchdog" and all(offs[i] == "command" for i in (1, 2, 4, 5, 6)), offs
+
+
+def test_a_frozen_loop_lets_the_drives_disable_themselves(tmp_path, hil_sim):
+    config = variant(tmp_path, CONFIG)  # the drives' 20 ms RPDO deadline
+    sim = hil_sim(config, "--port", 0)
+    code, summary, telemetry, err = run_with_a_frozen_loop(config, tmp_path, sim.info["env"])
+    sim_exit = sim.stop()
+    offs = [e for e in sim.of("motor_off") if e["cause"] == "watchdog"]
+    assert sorted(e["drive"] for e in offs) == [1, 2, 3, 4, 5, 6], sim.events
+    late = [e["since_command_ms"] for e in offs]
+    print(f"RPDO deadline: drives disabled {min(late):.1f}-{max(late):.1f} ms after the last RPDO")
+    assert all(20.0 <= ms <= 30.0 for ms in late), late
+    assert code == 3, err[-3000:]
+    for name in ("arm", "wrist"):
+        events = {e["event"] for e in summary["devices"][name]["events"]}
+        assert "drives_off" in events, summary["devices"][name]["events"]
+    check_complete(summary, telemetry, sim_exit)
+
+
+def test_a_dropped_connection_is_reopened_and_stopped_safely_within_2_s(tmp_path, hil_sim):
+    config = variant(tmp_path, CONFIG)
+    sim = hil_sim(config, "--port", 0, "--fault", "drop@500")
+    code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=4.0)
+    sim_exit = sim.stop()
+    assert code == 3, err[-3000:]
+    check_complete(summary, telemetry, sim_exit)
+    for device in ("arm", "wrist"):  # measured: reopened after 0.05 s, drives off after 0.56 s
+        check_reopened_and_stopped(summary, device)
+    assert sim_exit["server"]["connections"] >= 4  # both buses reconnected
+
+
+def test_corrupted_tpdos_are_counted_and_ignored(tmp_path, hil_sim):
+    config = variant(tmp_path, CONFIG, **STALL_TOLERANT)
+    sim = hil_sim(config, "--port", 0, "--fault", "corrupt:2:0.02")
+    code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=3.0)
+    sim_exit = sim.stop()
+    check_complete(summary, telemetry, sim_exit)
+    with unless_stalled(summary):
+        assert code == 0, (summary["stop_reason"], summary["safety"]["faults"][:3], err[-1000:])
+        assert summary["tracking_error_rad"]["max_all"] < 0.05
+    corrupted = {d["drive"]: d["counters"]["corrupted"] for d in sim_exit["drives"]}
+    assert corrupted[2] > 10 and sum(corrupted.values()) == corrupted[2]
+    assert summary["devices"]["arm"]["counters"]["malformed_replies"] == corrupted[2]
+    assert np.all(np.isfinite(telemetry["q"]))
+
+
+def test_a_drive_fault_is_a_safe_stop_naming_its_emcy_code(tmp_path, hil_sim):
+    config = variant(tmp_path, CONFIG, **STALL_TOLERANT)
+    sim = hil_sim(config, "--port", 0, "--fault", f"error:5:{0x2310}@500")  # over current on the wrist
+    code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=3.0)
+    sim_exit = sim.stop()
+    assert code == 3, err[-3000:]
+    check_complete(summary, telemetry, sim_exit)
+    (fault,) = [e for e in summary["devices"]["wrist"]["events"] if e["event"] == "drive_fault"]
+    assert fault["drive"] == 5 and fault["code"] == 0x2310 and "0x2310" in fault["reason"]
+    first = summary["safety"]["faults"][0]
+    assert first["kind"] == "device_error" and first["t"] - fault["t"] <= 0.004  # the tick it arrived, or the next
+    assert {e["drive"]: e["cause"] for e in sim.of("motor_off")}[5] == "error"

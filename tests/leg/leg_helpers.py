@@ -1,0 +1,60 @@
+"""Paths and shared helpers of the leg tests (a uniquely named module: see tests/model)."""
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+TABLE3 = ROOT / "configs" / "leg" / "table3.toml"
+sys.path.insert(0, str(ROOT / "tests" / "runtime"))
+from runtime_helpers import rtctl  # noqa: E402,F401  (re-exported)
+
+CONFIGS = ROOT / "configs"
+PATTERN = (1, 2, 3, 4, 1, 5, 1, 6)
+
+
+def leg_runtime(hysteresis: bool = True, seed: int = 1, angle_noise: float = 0.3):
+    """The shipped embedded leg configuration built (nothing opened): (board, controller)."""
+    from rtctl.config import load_config
+    from rtctl.runtime import build
+
+    text = (CONFIGS / "leg_sim.toml").read_text().replace('description = "robots/', f'description = "{CONFIGS}/robots/')
+    text = text.replace('table = "leg/table3.toml"', f'table = "{CONFIGS}/leg/table3.toml"\nhysteresis = {str(hysteresis).lower()}')
+    text = text.replace("seed = 1", f"seed = {seed}").replace("angle_noise = 0.3", f"angle_noise = {angle_noise}").replace('path = "../runs/leg_sim.msgpack"', "")
+    import tempfile
+
+    with tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False) as f:
+        f.write(text)
+    rt = build(load_config(f.name))
+    return rt.devices[0], rt.controllers[0]
+
+
+def walk(seconds: float, **kw):
+    """Run the board and the automaton tick by tick (read → update → write) for ``seconds`` of
+    plant time; the automaton's state sequence (each change once) and the gate toggles."""
+    import numpy as np
+
+    board, ctl = leg_runtime(**kw)
+    board.configure()
+    board.activate()
+    ctl.reset(None)
+    ticks = int(round(seconds / board.period))
+    seq = [int(ctl.data[4])]
+    toggles = 0
+    gates = ctl.data[5:].copy()
+    for _ in range(ticks):
+        board.read(0.0)
+        ctl.update(0.0, None, None, None)
+        board.write(0.0)
+        if ctl.data[4] != seq[-1]:
+            seq.append(int(ctl.data[4]))
+        toggles += int(np.count_nonzero(ctl.data[5:] != gates))
+        gates[:] = ctl.data[5:]
+    board.close()
+    return seq, toggles
+
+
+def pattern_prefix(seq) -> int:
+    """How many states of ``seq`` follow (1 2 3 4 1 5 1 6)ⁿ from the start (state 1)."""
+    n = 0
+    while n < len(seq) and seq[n] == PATTERN[n % len(PATTERN)]:
+        n += 1
+    return n

@@ -1,0 +1,88 @@
+"""The leg board codec: golden frames (CRC from an independent implementation), every 1- and
+2-bit error detected and the next frame found, random bytes never crash it."""
+import itertools
+
+import numpy as np
+import pytest
+from crccheck.crc import Crc16CcittFalse
+from hypothesis import given, settings, strategies as st
+
+from drivers.protocols import leg_board as lb
+
+
+def _reference_frame(kind: int, body: bytes) -> bytes:
+    data = bytes([kind]) + body
+    return b"\xa5\x5a" + data + Crc16CcittFalse.calc(data).to_bytes(2, "little")
+
+
+def test_golden_command_frame():
+    frame = lb.encode_command(7, lb.INCREASE, lb.DECREASE)
+    assert bytes(frame) == _reference_frame(0x43, bytes([7, 0b1001]))
+    assert bytes(frame).hex() == "a55a430709df80"  # sync, 'C', seq 7, knee 10 ankle 01, CRC
+    d = lb.Decoder(lb.COMMAND)
+    assert d.feed(frame) == 1 and lb.unpack_actions(d.actions) == (lb.INCREASE, lb.DECREASE) and d.seq == 7
+
+
+def test_golden_sensor_frame():
+    channels = [0.5236, -0.001, 0.35, 1.2, 0.0]  # rad, rad, rad, body weights
+    frame = lb.encode_sensor(255, lb.WATCHDOG | 0b1111, channels)
+    body = bytes([255, 0x1F]) + b"".join(int(round(c * 1000)).to_bytes(2, "little", signed=True) for c in channels)
+    assert bytes(frame) == _reference_frame(0x53, body) and len(frame) == lb.SENSOR_LENGTH == 17
+    d = lb.Decoder(lb.SENSOR)
+    assert d.feed(frame) == 1 and d.seq == 255 and d.status == 0x1F
+    assert np.allclose(d.channels, channels, atol=5e-4)
+
+
+def _flips(frame: bytes, bits):
+    out = bytearray(frame)
+    for b in bits:
+        out[b // 8] ^= 1 << (b % 8)
+    return bytes(out)
+
+
+@pytest.mark.parametrize("kind", [lb.SENSOR, lb.COMMAND])
+def test_every_one_and_two_bit_error_is_detected_and_the_next_frame_found(kind):
+    if kind == lb.SENSOR:
+        frames = [lb.encode_sensor(s, 3, [0.1 * s, -0.2, 0.3, 0.9, 0.05]) for s in (1, 2)]
+    else:
+        frames = [lb.encode_command(s, s & 3, 3 - (s & 3)) for s in (1, 2)]
+    bad, good = bytes(frames[0]), bytes(frames[1])
+    nbits = 8 * len(bad)
+    cases = 0
+    for k in (1, 2):
+        for bits in itertools.combinations(range(nbits), k):
+            d = lb.Decoder(kind)
+            assert d.feed(_flips(bad, bits)) == 0, bits  # detected: no frame accepted
+            assert d.feed(good) == 1 and d.seq == 2, bits  # and the next intact frame is found
+            cases += 1
+    assert cases == nbits + nbits * (nbits - 1) // 2
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.binary(max_size=300), st.integers(0, 255))
+def test_random_bytes_never_crash_and_the_next_frame_is_found(garbage, seq):
+    d = lb.Decoder(lb.SENSOR)
+    d.feed(garbage)
+    good = lb.encode_sensor(seq, 0, [0.0, 0.1, 0.2, 0.3, 0.4])
+    d.feed(good)
+    assert d.seq == seq and np.allclose(d.channels, [0.0, 0.1, 0.2, 0.3, 0.4])
+
+
+def test_split_frames_lost_frames_and_foreign_frames_are_counted():
+    d = lb.Decoder(lb.SENSOR)
+    stream = b"".join(lb.encode_sensor(s, 0, [0, 0, 0, 0, 0]) for s in (10, 11, 14))
+    stream += lb.encode_command(3, 0, 0)  # our own command echoed (loop://): not a sensor frame
+    stream += lb.encode_sensor(15, 0, [0, 0, 0, 0, 0])
+    for i in range(0, len(stream), 5):  # byte by byte chunks
+        d.feed(stream[i:i + 5])
+    assert d.counters["frames"] == 4 and d.counters["lost_frames"] == 2 and d.seq == 15
+    assert d.counters["crc_errors"] == 0 and d.counters["skipped_bytes"] == lb.COMMAND_LENGTH
+
+
+def test_encoders_check_their_inputs():
+    with pytest.raises(ValueError):
+        lb.encode_command(0, 4, 0)
+    with pytest.raises(ValueError):
+        lb.encode_sensor(0, 0, [0.0] * 4)
+    with pytest.raises(ValueError):
+        lb.encode_sensor(0, 0, [np.nan] * 5)

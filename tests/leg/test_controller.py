@@ -1,0 +1,86 @@
+"""The leg_automaton controller: configuration errors, allocation-free update, and the safe
+state (both joints locked) in the tick a fault is found."""
+import tracemalloc
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from leg_helpers import CONFIGS, leg_runtime
+from rtctl.config import load_config
+from rtctl.daemon import Daemon
+from rtctl.errors import ConfigError
+from rtctl.runtime import build
+from rtctl.telemetry import read
+
+
+def _config(tmp_path, **replace):
+    text = (CONFIGS / "leg_sim.toml").read_text().replace('description = "robots/', f'description = "{CONFIGS}/robots/')
+    text = text.replace('table = "leg/table3.toml"', f'table = "{CONFIGS}/leg/table3.toml"')
+    text = text.replace('path = "../runs/leg_sim.msgpack"', "")
+    for old, new in replace.items():
+        assert old in text, old
+        text = text.replace(old, new)
+    path = tmp_path / "leg.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("old, new, key, words", [
+    ('gates.K_d3 = { channel = "knee",  threshold = 40.0, hysteresis = 2.0 }\n', "", "controllers[0].gates.K_d3", "missing"),
+    ('channel = "ankle"', 'channel = "elbow"', "controllers[0].gates.a_d.channel", "one of"),
+    ('devices = ["board"]', "devices = []", "controllers[0].devices", "exactly one leg board"),
+    ('hysteresis = 2.0, below = true', 'hysteresis = -2.0, below = true', "controllers[0].gates.h_d2.hysteresis", "≥ 0"),
+])
+def test_bad_controller_options_exit_2_naming_the_key(tmp_path, old, new, key, words):
+    with pytest.raises(ConfigError) as e:
+        build(load_config(_config(tmp_path, **{old: new})))
+    assert e.value.key_path == key and words in e.value.expected, e.value
+
+
+def test_update_allocates_nothing():
+    board, ctl = leg_runtime()
+    board.configure()
+    board.activate()
+    ctl.reset(None)
+    for _ in range(2000):  # into the walk, compiled paths loaded
+        board.read(0.0)
+        ctl.update(0.0, None, None, None)
+        board.write(0.0)
+    ticks = []
+    for _ in range(3000):  # a gait's worth of channels, replayed below under tracemalloc
+        board.read(0.0)
+        ticks.append(board.channels.copy())
+        board.write(0.0)
+    ch = board.channels
+    tracemalloc.start()
+    try:
+        before, _ = tracemalloc.get_traced_memory()
+        tracemalloc.reset_peak()
+        for row in ticks:
+            ch[:] = row
+            ctl.update(0.0, None, None, None)
+        after, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert after - before <= 64 and peak - before < 512, (after - before, peak - before)
+
+
+def test_a_circuit_that_does_not_settle_locks_both_joints_in_the_same_tick(tmp_path):
+    """max_passes = 1 leaves no pass to confirm a state change: the first transition is a fault."""
+    path = _config(tmp_path, **{'table = "': 'max_passes = 1\ntable = "'})
+    cfg = load_config(path)
+    args = SimpleNamespace(telemetry=str(tmp_path / "t.msgpack"), socket=str(tmp_path / "s.sock"), enforce_rt=False,
+                           duration=3.0, summary=None, log_level="error", realtime_factor=0.0)
+    from dataclasses import replace
+
+    cfg = replace(cfg, loop=replace(cfg.loop, realtime_factor=0.0))
+    d = Daemon(cfg, build(cfg), args)
+    assert d.run() == 3
+    fault = d.safety.faults[0]
+    assert "did not settle" in fault.reason
+    tel = read(args.telemetry)
+    rows = np.flatnonzero(tel["t"] >= fault.t)
+    assert tel["leg_actions"][rows[0]].tolist() == [0, 0]  # locked in the fault's own tick
+    assert np.all(tel["leg_actions"][rows] == 0)
+    assert not np.all(tel["leg_actions"][: rows[0]] == 0)  # (it was walking before)
