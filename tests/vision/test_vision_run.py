@@ -33,6 +33,16 @@ def test_run_records_the_marker_within_half_a_pixel(tmp_path):
     png = tmp_path / "plot.png"
     r = rtctl("plot", tel, "-o", png)
     assert r.returncode == 0 and png.stat().st_size > 10_000, r.stderr
+    from rtctl.plot import figure
+
+    axes = {ax.get_title(): ax for ax in figure(tel).axes}
+    lines = {ln.get_label(): ln for ln in axes["tool marker in the image"].get_lines()}
+    errors = {ln.get_label(): ln for ln in axes["marker measured − predicted"].get_lines()}
+    for k, axis in enumerate("uv"):  # each line is the column it claims, against the recorded time
+        np.testing.assert_array_equal(lines[f"{axis} measured"].get_xdata(), t["t"])
+        np.testing.assert_array_equal(lines[f"{axis} measured"].get_ydata(), t["marker_measured_px"][:, k])
+        np.testing.assert_array_equal(lines[f"{axis} predicted"].get_ydata(), t["marker_predicted_px"][:, k])
+        np.testing.assert_array_equal(errors[axis].get_ydata(), t["marker_error_px"][:, k])
 
 
 def test_grab_saves_the_frame_with_the_marker(tmp_path):
