@@ -153,9 +153,19 @@ def _parser() -> argparse.ArgumentParser:
     ident.add_argument("--r0", type=float, default=1e-6, help="R̂(0) (default 1e-6)")
     ident.add_argument("--json", metavar="PATH", help="also write the result as JSON")
 
+    grab = sub.add_parser("grab", help="save one image of a framegrabber device as a PNG (needs the `vision` extra)",
+                          description="Bring up only the framegrabber device of CONFIG (no drive is touched), wait "
+                                      "for one image and save it: grey levels stretched to 0-255, a field "
+                                      "line-doubled. A simulated device runs in lock-step with the robot at rest.")
+    grab.add_argument("config", help="run configuration with a [[devices]] of kind \"framegrabber\"")
+    grab.add_argument("-o", "--output", required=True, help="PNG to write")
+    grab.add_argument("--device", help="which framegrabber device (default: the first)")
+    grab.add_argument("--sim", action="store_true", help="play the devices with the embedded simulator")
+    grab.add_argument("--timeout", type=float, default=2.0, metavar="S", help="give up after S seconds (default 2)")
+
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
-                                        "control-socket", "safety", "trajectory", "leg", "soak", "guard"),
+                                        "control-socket", "safety", "trajectory", "leg", "soak", "guard", "grabber"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
                             "PUMA 560; loop-timing: an empty loop (like cyclictest); can: codec and transports; "
                             "control: the Slotine–Li laws and arma_gmv; telemetry, control-socket, safety, trajectory: their per-tick costs; "
@@ -163,7 +173,9 @@ def _parser() -> argparse.ArgumentParser:
                             "soak: the full stack over HIL (socketcand, MIT and CiA 402) for --minutes: RSS, GC, "
                             "overruns and lateness per minute, telemetry rows, drives left enabled; "
                             "guard: the per-tick interference guard (16 zones on 6 joints) and bypass planning "
-                            "(against OMPL's RRT-Connect when the `bench` extra is installed)")
+                            "(against OMPL's RRT-Connect when the `bench` extra is installed); "
+
+                            "grabber: framegrabber driver, unpacking, marker, camera simulator")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
     bench.add_argument("--config", default=None, help="run configuration for `bench loop` (default: the shipped one)")
@@ -243,6 +255,10 @@ def _dispatch(args) -> int:
         plot_run(args.path, args.output)
         print(args.output)
         return EXIT_OK
+    if args.command == "grab":
+        from rtctl.vision.grab import grab
+
+        return grab(args)
     if args.command == "export":
         from rtctl.telemetry.mcap_export import export_mcap
 

@@ -143,6 +143,10 @@ def bench(args) -> int:
         from rtctl.bench.control_socket import bench_control_socket as run, format_table
 
         result = run()
+    elif args.what == "grabber":
+        from rtctl.bench.grabber import bench_grabber as run, format_table
+
+        result = run()
     elif args.what in ("safety", "trajectory", "leg", "guard"):
         from importlib import import_module
 

@@ -41,6 +41,16 @@ class ProtocolError(HardwareError):
     """Bytes on a wire do not decode (wrong length, unknown id, corrupt frame)."""
 
 
+class SettingsError(RtctlError):
+    """A device cannot do these settings (e.g. a framegrabber window outside its sampling grid);
+    ``key`` names the setting, so a configuration error can name its key path."""
+
+    def __init__(self, key: str, expected: str):
+        self.key = key
+        self.expected = expected
+        super().__init__(f"{key}: {expected}")
+
+
 class BusLoadError(ConfigError):
     """A bus would be loaded beyond its configured limit at the configured rate."""
 
