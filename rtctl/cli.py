@@ -174,7 +174,6 @@ def _parser() -> argparse.ArgumentParser:
                             "overruns and lateness per minute, telemetry rows, drives left enabled; "
                             "guard: the per-tick interference guard (16 zones on 6 joints) and bypass planning "
                             "(against OMPL's RRT-Connect when the `bench` extra is installed); "
-
                             "grabber: framegrabber driver, unpacking, marker, camera simulator")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
