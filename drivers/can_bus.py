@@ -45,10 +45,12 @@ def read_bus_options(t: Table) -> BusOptions:
     kwargs = {}
     for key in list(bt.data):
         value = bt.raw(key)
+        if not isinstance(value, (str, int, float, bool)):  # (the TOML has no NaN: load_toml refused it)
+            raise bt.error(key, f"a string, number or true/false for can.Bus({key}=...), got {value!r}")
         kwargs[key] = expand_env(bt, key, value) if isinstance(value, str) else value
     deferred = {k for k, v in kwargs.items() if isinstance(v, Deferred)}
     interface = kwargs.get("interface")
-    if "interface" not in deferred and interface not in can.interfaces.VALID_INTERFACES:
+    if "interface" not in deferred and (not isinstance(interface, str) or interface not in can.interfaces.VALID_INTERFACES):
         raise bt.error("interface", f"a python-can interface ({', '.join(sorted(can.interfaces.VALID_INTERFACES))}), "
                                     f"got {interface!r}")
     channel = kwargs.get("channel")
@@ -77,6 +79,8 @@ class _Bus:
     frames: ProtocolFrames | None = None  # None: the protocol's standard frames
     joints: int = 0
     devices: list = field(default_factory=list)
+    ids: dict = field(default_factory=dict)  # CAN id → who sends (a drive) or listens (a master_id) on it
+    replies: dict = field(default_factory=dict)  # (master_id, reply byte 0) → the joint it names
 
     def load(self, rate_hz: float) -> BusLoad:
         return bus_load(self.label, self.protocol, self.joints, rate_hz, self.bitrate, self.frames)
@@ -112,6 +116,29 @@ class BusBudget:
         self.limits[bus.identity] = min(limit, self.limits.get(bus.identity, limit))
         load = entry.load(rate_hz)
         return check_bus_load(load, t.file, f"{t.path}.bus", self.limits[bus.identity])
+
+    def claim_ids(self, t: Table, device: str, bus: BusOptions, commands: dict, master_id: int, replies: dict) -> None:
+        """Reserve this device's CAN ids on its bus, or refuse them (ConfigError, exit 2) when
+        they would be confused with another device's there: ``commands`` (drive id → joint)
+        must be ids nobody else sends or listens on, ``master_id`` (the id the drives reply
+        on) no other device's drive id, and ``replies`` (reply byte 0 → joint) unique among
+        the devices listening on the same ``master_id``."""
+        entry = self.buses[bus.identity]
+        for can_id, joint in commands.items():
+            if can_id in entry.ids:
+                raise t.error("ids", f"CAN ids no other device on bus {bus.label} uses; {can_id:#x} (joint {joint}) "
+                                     f"is also {entry.ids[can_id]}")
+        if not entry.ids.get(master_id, "master_id").startswith("master_id"):
+            raise t.error("master_id", f"an id no other device's drive on bus {bus.label} uses; {master_id:#x} is "
+                                       f"{entry.ids[master_id]}")
+        for key, joint in replies.items():
+            other = entry.replies.get((master_id, key))
+            if other is not None:
+                raise t.error("ids", f"drives whose replies can be told apart on bus {bus.label} (master_id "
+                                     f"{master_id:#x}); joint {joint} and {other} both answer with byte 0 = {key:#04x}")
+        entry.ids.update({can_id: f"drive {can_id:#x} of {device} (joint {joint})" for can_id, joint in commands.items()})
+        entry.ids.setdefault(master_id, f"master_id of {device}")
+        entry.replies.update({(master_id, key): f"joint {joint} of {device}" for key, joint in replies.items()})
 
     def lines(self, rate_hz: float) -> list[str]:
         """The table ``rtctl check`` prints, one row per bus (a note when a bitrate is assumed)."""

@@ -110,11 +110,11 @@ class MitCanJointGroup(CanJointGroup):
     def _read_timing(t, period) -> dict:
         return dict(
             reply_deadline=t.float("reply_deadline", 0.6, positive=True, max=0.95),
-            stale_limit=t.int("stale_limit", 3, min=1),
-            drive_timeout=t.float("drive_timeout", 0.02, positive=True),
-            exchange_timeout=t.float("exchange_timeout", 0.5, positive=True),
-            reconnect_timeout=t.float("reconnect_timeout", 2.0, min=0.0),
-            reconnect_interval=t.float("reconnect_interval", 0.05, positive=True),
+            stale_limit=t.int("stale_limit", 3, min=1, max=10_000),
+            drive_timeout=t.float("drive_timeout", 0.02, positive=True, max=10.0),
+            exchange_timeout=t.float("exchange_timeout", 0.5, positive=True, max=60.0),
+            reconnect_timeout=t.float("reconnect_timeout", 2.0, min=0.0, max=60.0),
+            reconnect_interval=t.float("reconnect_interval", 0.05, positive=True, max=10.0),
             set_zero=t.bool("set_zero", False),
         )
 
@@ -129,6 +129,8 @@ class MitCanJointGroup(CanJointGroup):
         limit = t.float("bus_load_limit", DEFAULT_LIMIT, positive=True, max=1.0)
         budget, first = BusBudget.of(context.shared)
         budget.add(t, name, bus, protocol, len(joints), 1.0 / context.period, limit)
+        budget.claim_ids(t, name, bus, {j.drive_id: j.name for j in joints}, read_master_id(t),
+                         {key: j.name for j in joints for key in reply_keys(j)})
         return budget if first else None
 
     # -- lifecycle -----------------------------------------------------------------------

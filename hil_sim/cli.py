@@ -8,6 +8,10 @@ its own process, behind a real transport, for ``rtctl run`` to drive (docs/opera
     hil-sim CONFIG --fault silent:3@1000 --fault corrupt:2:0.02     # scripted faults (hil_sim.lockstep)
     hil-sim configs/leg_hil.toml                                    # the leg board on a pty (--transport serial)
 
+Framegrabber devices (``kind = "framegrabber"``) get a free-running camera filming the plant at
+the PAL rate, writing into a shared memory created here (its name, when the device's ``shm``
+option names a ``${VAR}``, made unique and announced under ``env``).
+
 The drives are those of the configuration's ``mit_can`` and ``cia402`` devices (ids, models or
 EDS and scaling, mounting: the same layout the driver reads); devices naming the same bus
 options share a bus (a socketcand channel, or a pty), one protocol per bus. A configuration
@@ -42,6 +46,7 @@ from drivers.protocols.cia402_layout import read_cia402_joints, read_eds
 from drivers.protocols.mit_layout import read_master_id, read_mit_joints
 from hil_sim.can_rig import emulated_cia402_drives, emulated_drives, sim_layout
 from hil_sim.embedded import SimPlantHub
+from hil_sim.framegrabber import camera_servers
 from hil_sim.lockstep import HubCia402Bus, HubDriveBus, PlantHub, ScriptedFault
 from rtctl.config import joint_indices
 from rtctl import jsonout
@@ -123,6 +128,7 @@ def build(args):
     plant.step(0.0)  # load the compiled step before announcing
     hub = PlantHub(plant, period, args.realtime_factor, emit)
     hub.faults = [ScriptedFault.parse(s) for s in args.fault]
+    hub.cameras = camera_servers(load_toml(path), plant)
     buses = []
     for p in plans:
         joints, indices = zip(*p.layout)
@@ -155,11 +161,11 @@ def serve_socketcand(args, hub, plans, buses) -> None:
         info["env"].update({name: str(info["port"]) for name in env_names(p.raw, "port")})
         info["env"].update({name: info["host"] for name in env_names(p.raw, "host")})
     _stop_on_signals(server.shutdown)
-    emit(info)
+    emit(_with_cameras(info, hub.cameras))
     try:
         server.serve_forever()
     finally:
-        emit({**hub.summary(), "server": server.counters})
+        emit({**hub.summary(), "server": server.counters, **_close_cameras(hub.cameras)})
 
 
 def serve_slcan(args, hub, plans, buses) -> None:
@@ -173,7 +179,7 @@ def serve_slcan(args, hub, plans, buses) -> None:
     threads = [threading.Thread(target=a.serve_forever, daemon=True) for a in adapters]
     for th in threads:
         th.start()
-    emit(info)
+    emit(_with_cameras(info, hub.cameras))
     try:
         while not stop.wait(0.5):  # (a signal handler runs in the main thread between waits)
             pass
@@ -182,7 +188,24 @@ def serve_slcan(args, hub, plans, buses) -> None:
             a.shutdown()
         for th in threads:
             th.join(5.0)
-        emit({**hub.summary(), "server": [a.counters for a in adapters]})
+        emit({**hub.summary(), "server": [a.counters for a in adapters], **_close_cameras(hub.cameras)})
+
+
+def _with_cameras(info: dict, cameras) -> dict:
+    """Start the free-running cameras; announce their shared memories (and the variables naming them)."""
+    for c in cameras:
+        c.camera.start()
+        info["env"].update(c.env)
+    if cameras:
+        info["framegrabbers"] = {c.name: c.info() for c in cameras}
+    return info
+
+
+def _close_cameras(cameras) -> dict:
+    counters = {c.name: c.camera.counters for c in cameras}
+    for c in cameras:
+        c.close()
+    return {"framegrabbers": counters} if cameras else {}
 
 
 def leg_board_device(path: Path):
@@ -191,6 +214,9 @@ def leg_board_device(path: Path):
         if d.data.get("driver") == "leg_board":
             return d
     return None
+
+
+LEG_WATCHDOG_MS = 20.0  # the leg board's command watchdog is 2.5 × this, unless --drive-timeout-ms
 
 
 def serve_leg(args, path: Path, device) -> int:
@@ -203,7 +229,8 @@ def serve_leg(args, path: Path, device) -> int:
     sim = t.table("sim", None)
     leg = sim.table("leg", Table({}, path, "sim.leg")) if sim is not None else Table({}, path, "sim.leg")
     plant = LegPlant(LegParams.from_table(leg))
-    server = LegBoardServer(plant, period, args.realtime_factor, args.drive_timeout_ms / 1e3 * 2.5, emit)
+    watchdog_ms = LEG_WATCHDOG_MS if args.drive_timeout_ms is None else args.drive_timeout_ms
+    server = LegBoardServer(plant, period, args.realtime_factor, watchdog_ms / 1e3 * 2.5, emit)
     server.faults = [ScriptedFault.parse(s) for s in args.fault]
     port = device.data.get("port", "")
     info = {"transport": "serial", "tty": server.path, "period": period,
@@ -233,7 +260,7 @@ def main(argv=None) -> int:
     p.add_argument("--realtime-factor", type=float, default=0.0, metavar="F",
                    help="0 (default): lock-step, one period per command set; F > 0: free-running at F × wall clock")
     p.add_argument("--drive-timeout-ms", type=float, default=None,
-                   help="the MIT drives' command watchdog (default: their device's drive_timeout, else 20 ms; "
+                   help="the MIT drives' command watchdog (default: their device's drive_timeout, else 20 ms; the leg board's is 2.5 × it; "
                         "a CiA 402 drive's deadline is configured by the driver)")
     p.add_argument("--fault", action="append", default=[], metavar="SPEC",
                    help="silent:ID | corrupt:ID:RATE | error:ID:CODE | drop, ID as N or BUS/N, optional @CYCLES")
@@ -265,6 +292,7 @@ def main(argv=None) -> int:
     elif transport == "socketcand":
         serve_socketcand(args, hub, plans, buses)
     else:
+        _close_cameras(hub.cameras)
         print(f"hil-sim: the configuration's bus interface is {transport!r}: choose --transport socketcand|slcan",
               file=sys.stderr)
         return 2

@@ -28,6 +28,7 @@ import numpy as np
 from rtctl.hal import JointGroup, Status
 from rtctl.hal.lifecycle import Lifecycle
 from rtctl.model import load_robot
+from rtctl.model.dynamics import forward_dynamics
 from hil_sim.plant import Plant
 
 
@@ -62,6 +63,10 @@ class SimPlantHub:
                       friction_scale=sim.float("friction", 1.0, min=0.0),
                       armature=sim.bool("armature", True), q0=q0,
                       integrator=sim.str("integrator", "euler", choices=("euler", "rk4")))
+        try:  # a joint with no inertia and no armature cannot be simulated (its q̈ is undefined)
+            forward_dynamics(true_model, plant.q, plant.qd, plant.qd, plant.armature)
+        except ValueError as e:
+            raise sim.error("armature", f"a plant whose every joint has inertia or armature ({e})") from None
         hub = cls(plant, period)
         hub.encoder_counts = sim.int("encoder_counts", 0, min=0)
         hub.velocity_noise = sim.float("velocity_noise", 0.0, min=0.0)

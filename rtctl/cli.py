@@ -1,24 +1,49 @@
 """``rtctl``: the command line. Every subcommand's ``--help`` says what it does.
 
 Exit codes (documented for systemd units and scripts):
-  0  clean exit (duration reached, ``stop``, SIGTERM or SIGINT)
+  0  clean exit (duration reached, ``stop``, SIGTERM or SIGINT) with no fault left latched
   1  unexpected internal error (a bug: please report the traceback)
   2  invalid configuration or command-line arguments (nothing was touched)
-  3  safe stop after a fault (limit, watchdog, device error, overruns, e-stop)
+  3  safe stop after a fault (limit, watchdog, device error, overruns, e-stop, telemetry
+     writer failure), or any run that ends with its fallback engaged and not cleared by
+     ``reset``; ``move``/``reset`` refused by the daemon
   4  hardware could not be brought up (driver missing, link failed)
   5  ``--enforce-rt`` and a real-time knob could not be applied
-  6  the control socket could not be reached (status/stop/estop/reset/move)
+  6  the control socket could not be reached (status/stop/estop/reset/move), or ``run``
+     found its control socket or telemetry file held by another running daemon
 """
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 
-from rtctl.errors import (ConfigError, ControlSocketError, HardwareError, RealtimeError, RtctlError,
-                          SafetyError)
+from rtctl.errors import (ConfigError, ControlSocketError, HardwareError, RealtimeError, ResourceBusyError,
+                          RtctlError, SafetyError)
 
 EXIT_OK, EXIT_BUG, EXIT_CONFIG, EXIT_FAULT, EXIT_HARDWARE, EXIT_RT, EXIT_SOCKET = range(7)
+
+
+def _number(kind: str, ok):
+    """An argparse type: a finite float for which ``ok`` holds (argparse exits 2 otherwise)."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and ok(value)):
+            raise argparse.ArgumentTypeError(f"expected {kind}, got {text!r}")
+        return value
+
+    parse.__name__ = kind  # argparse names the type in its messages
+    return parse
+
+
+_SECONDS = _number("a finite number of seconds > 0", lambda x: x > 0)
+_FACTOR = _number("a finite number ≥ 0", lambda x: x >= 0)
+_FINITE = _number("a finite number", lambda x: True)
+_RATE = _number("a rate in Hz in [1, 100000]", lambda x: 1 <= x <= 1e5)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -42,8 +67,8 @@ def _parser() -> argparse.ArgumentParser:
                                      "per line otherwise (systemd/journald) or with --log-format json.")
     run.add_argument("config", help="run configuration (TOML), e.g. configs/puma560_sim.toml")
     run.add_argument("--sim", action="store_true", help="replace the joint devices by the embedded simulator")
-    run.add_argument("--duration", type=float, metavar="S", help="stop after S seconds of loop time (default: run until `rtctl stop`, SIGTERM or Ctrl-C)")
-    run.add_argument("--realtime-factor", type=float, metavar="F",
+    run.add_argument("--duration", type=_SECONDS, metavar="S", help="stop after S seconds of loop time (default: run until `rtctl stop`, SIGTERM or Ctrl-C)")
+    run.add_argument("--realtime-factor", type=_FACTOR, metavar="F",
                      help="simulated devices only: 0 = as fast as possible (reproducible), 1 = wall clock")
     run.add_argument("--telemetry", metavar="PATH", help="record telemetry (msgpack) to PATH")
     run.add_argument("--summary", metavar="PATH", help="write the JSON run summary to PATH at exit")
@@ -53,10 +78,26 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--log-format", default="auto", choices=("auto", "console", "json"),
                      help="auto (default): console on a terminal, json otherwise")
 
-    check = sub.add_parser("check", help="validate a run configuration; print the bus-load budget and the environment "
-                                            "variables a run reads")
+    check = sub.add_parser("check", help="validate a run configuration; print the bus-load budget, the environment "
+                                         "variables a run reads and the guard's report (crossings of interference "
+                                         "zones and the bypasses)")
     check.add_argument("config")
     check.add_argument("--sim", action="store_true", help="check as `run --sim` would")
+
+    plan = sub.add_parser("plan", help="plan a path around the interference zones (and draw it)",
+                          description="Plan a joint-space path from the start (the simulator's initial_q, or "
+                                      "--from) to --to — or along CONFIG's trajectory — around the zones of CONFIG "
+                                      "(robot file and [[guard.zones]]): the shortest path in a two-joint plane, a "
+                                      "resolution-complete grid search otherwise. Prints the path; exit 2 when there "
+                                      "is none, with the reason.")
+    plan.add_argument("config", help="run configuration (TOML)")
+    plan.add_argument("--to", type=float, nargs="+", metavar="Q",
+                      help="target joint positions (default: the configuration's trajectory waypoints)")
+    plan.add_argument("--from", dest="start", type=float, nargs="+", metavar="Q",
+                      help="start joint positions (default: the simulator's initial_q)")
+    plan.add_argument("--deg", action="store_true", help="positions in degrees (revolute joints)")
+    plan.add_argument("--sim", action="store_true", help="read CONFIG as `run --sim` would")
+    plan.add_argument("--plot", metavar="PNG", help="draw the zones and the path in each joint plane that has a zone")
 
     margins = sub.add_parser(
         "margins", help="stability margins of the adaptive controllers against the wire's delay",
@@ -71,7 +112,7 @@ def _parser() -> argparse.ArgumentParser:
 
     model = sub.add_parser("model", help="print a robot: joints, tool pose, H, G and a timing line")
     model.add_argument("robot", help="robot description: D-H TOML or URDF")
-    model.add_argument("--q", type=float, nargs="+", metavar="Q", help="configuration (rad/m; default home = 0)")
+    model.add_argument("--q", type=_FINITE, nargs="+", metavar="Q", help="configuration (rad/m; default home = 0)")
 
     for name, text in (("status", "print the running daemon's status"), ("stop", "stop the daemon cleanly"),
                        ("estop", "emergency stop of the robot: damping, then drives off; the daemon stays up "
@@ -80,9 +121,9 @@ def _parser() -> argparse.ArgumentParser:
         s = sub.add_parser(name, help=text)
         s.add_argument("--socket", metavar="PATH", help="control socket path (default: $XDG_RUNTIME_DIR/rtctl.sock)")
     move = sub.add_parser("move", help="move to joint positions along a smooth trajectory")
-    move.add_argument("q", type=float, nargs="+", help="target joint positions")
+    move.add_argument("q", type=_FINITE, nargs="+", help="target joint positions")
     move.add_argument("--deg", action="store_true", help="positions in degrees (revolute joints)")
-    move.add_argument("--duration", type=float, help="seconds (default: as fast as the limits allow)")
+    move.add_argument("--duration", type=_SECONDS, help="seconds (default: as fast as the limits allow)")
     move.add_argument("--socket", metavar="PATH")
 
     plot = sub.add_parser("plot", help="draw a telemetry file (needs the `plot` extra: matplotlib)")
@@ -112,21 +153,34 @@ def _parser() -> argparse.ArgumentParser:
     ident.add_argument("--r0", type=float, default=1e-6, help="R̂(0) (default 1e-6)")
     ident.add_argument("--json", metavar="PATH", help="also write the result as JSON")
 
+    grab = sub.add_parser("grab", help="save one image of a framegrabber device as a PNG (needs the `vision` extra)",
+                          description="Bring up only the framegrabber device of CONFIG (no drive is touched), wait "
+                                      "for one image and save it: grey levels stretched to 0-255, a field "
+                                      "line-doubled. A simulated device runs in lock-step with the robot at rest.")
+    grab.add_argument("config", help="run configuration with a [[devices]] of kind \"framegrabber\"")
+    grab.add_argument("-o", "--output", required=True, help="PNG to write")
+    grab.add_argument("--device", help="which framegrabber device (default: the first)")
+    grab.add_argument("--sim", action="store_true", help="play the devices with the embedded simulator")
+    grab.add_argument("--timeout", type=float, default=2.0, metavar="S", help="give up after S seconds (default 2)")
+
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
-                                        "control-socket", "safety", "trajectory", "leg", "soak"),
+                                        "control-socket", "safety", "trajectory", "leg", "soak", "guard", "grabber"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
                             "PUMA 560; loop-timing: an empty loop (like cyclictest); can: codec and transports; "
                             "control: the Slotine–Li laws and arma_gmv; telemetry, control-socket, safety, trajectory: their per-tick costs; "
                             "leg: the leg automaton's gates + circuit per tick and the leg board codec; "
                             "soak: the full stack over HIL (socketcand, MIT and CiA 402) for --minutes: RSS, GC, "
-                            "overruns and lateness per minute, telemetry rows, drives left enabled")
+                            "overruns and lateness per minute, telemetry rows, drives left enabled; "
+                            "guard: the per-tick interference guard (16 zones on 6 joints) and bypass planning "
+                            "(against OMPL's RRT-Connect when the `bench` extra is installed); "
+                            "grabber: framegrabber driver, unpacking, marker, camera simulator")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
     bench.add_argument("--config", default=None, help="run configuration for `bench loop` (default: the shipped one)")
-    bench.add_argument("--rate", type=float, default=1000.0, help="loop rate for `bench loop` (Hz)")
-    bench.add_argument("--seconds", type=float, default=10.0, help="duration for `bench loop` (s)")
-    bench.add_argument("--minutes", type=float, default=10.0,
+    bench.add_argument("--rate", type=_RATE, default=1000.0, help="loop rate for `bench loop` (Hz)")
+    bench.add_argument("--seconds", type=_SECONDS, default=10.0, help="duration for `bench loop` (s)")
+    bench.add_argument("--minutes", type=_SECONDS, default=10.0,
                        help="duration for `bench soak` (default 10; --config: another HIL configuration)")
 
     sub.add_parser("doctor", help="report this machine's real-time readiness and what to change")
@@ -143,9 +197,15 @@ _EXIT_FOR = (
     (RealtimeError, EXIT_RT, "real-time: "),
     (HardwareError, EXIT_HARDWARE, "hardware: "),
     (ControlSocketError, EXIT_SOCKET, ""),
+    (ResourceBusyError, EXIT_SOCKET, "busy: "),
     (SafetyError, EXIT_FAULT, "safe stop: "),
     (RtctlError, EXIT_CONFIG, ""),
 )
+
+
+def exit_code_for(error: RtctlError) -> tuple[int, str]:
+    """The exit code of an error of the tree, and how its message starts."""
+    return next((c, p) for cls, c, p in _EXIT_FOR if isinstance(error, cls))
 
 
 def main(argv=None) -> int:
@@ -153,7 +213,7 @@ def main(argv=None) -> int:
     try:
         return _dispatch(args)
     except RtctlError as e:
-        code, prefix = next((c, p) for cls, c, p in _EXIT_FOR if isinstance(e, cls))
+        code, prefix = exit_code_for(e)
         print(f"rtctl: {prefix}{e}", file=sys.stderr)
         return code
     except KeyboardInterrupt:
@@ -172,6 +232,10 @@ def _dispatch(args) -> int:
         from rtctl.commands import check
 
         return check(args)
+    if args.command == "plan":
+        from rtctl.guard.commands import plan
+
+        return plan(args)
     if args.command == "margins":
         from rtctl.commands import margins
 
@@ -190,6 +254,10 @@ def _dispatch(args) -> int:
         plot_run(args.path, args.output)
         print(args.output)
         return EXIT_OK
+    if args.command == "grab":
+        from rtctl.vision.grab import grab
+
+        return grab(args)
     if args.command == "export":
         from rtctl.telemetry.mcap_export import export_mcap
 

@@ -73,19 +73,23 @@ def margins(args) -> int:
 def check(args) -> int:
     """Validate everything `run` would, without touching a device; print the bus budget and
     the environment variables the run will need (an unset one is reported, not an error)."""
-    from rtctl.config import load_config
-    from rtctl.runtime import build
+    from rtctl.daemon import prepare
     from rtctl.tomltable import deferred_env
 
     with deferred_env() as env_uses:
-        cfg = load_config(args.config, sim=args.sim)
-        runtime = build(cfg)  # plug-ins validate their options here; nothing is opened
+        daemon = prepare(args)  # what `run` does before it opens anything: load, build, plan
+    cfg, runtime = daemon.cfg, daemon.rt
     print(f"{cfg.file}: OK — robot {cfg.model.name} ({cfg.model.nq} joints), "
           f"{cfg.loop.rate_hz:g} Hz, devices: {', '.join(f'{d.name} ({d.driver})' for d in cfg.devices)}, "
           f"controllers: {', '.join(f'{c.name} ({c.type})' for c in cfg.controllers) or 'none'}")
     for line in runtime.bus_budget():
         print(line)
     for line in _env_lines(env_uses):
+        print(line)
+    from rtctl.daemon import _trajectory_limits
+    from rtctl.guard.commands import check_lines
+
+    for line in check_lines(cfg, _trajectory_limits(cfg)):
         print(line)
     return EXIT_OK
 
@@ -139,7 +143,11 @@ def bench(args) -> int:
         from rtctl.bench.control_socket import bench_control_socket as run, format_table
 
         result = run()
-    elif args.what in ("safety", "trajectory", "leg"):
+    elif args.what == "grabber":
+        from rtctl.bench.grabber import bench_grabber as run, format_table
+
+        result = run()
+    elif args.what in ("safety", "trajectory", "leg", "guard"):
         from importlib import import_module
 
         module = import_module(f"rtctl.bench.{args.what}")

@@ -17,7 +17,8 @@ Layout of a run configuration (paths are relative to the file)::
                   devices (names of non-joint devices it uses), gains …
     [trajectory]  unit, waypoints, smooth, dwell, velocity/acceleration limits, durations
     [safety]      fallback, damping, stale_ticks, position_margin, estop_off_delay
-    [telemetry]   path, batch_rows
+    [guard]       interference zones and the guard's settings (rtctl.guard.config)
+    [telemetry]   path, batch_rows, on_failure ("stop": a writer failure is a safe stop; "continue")
     [control]     socket
 """
 from __future__ import annotations
@@ -29,9 +30,14 @@ from pathlib import Path
 import numpy as np
 
 from rtctl.errors import ConfigError, RtctlError
+from rtctl.guard.config import GuardConfig, check_waypoints, load_guard
 from rtctl.model import Model, load_robot
-from rtctl.timing.rt import RtSettings
+from rtctl.timing.rt import MAX_TIMER_SLACK_NS, RtSettings
 from rtctl.tomltable import Table, load_toml
+
+
+MIN_RATE_HZ = 1.0  # the loop's slowest rate: a tick is at most 1 s apart
+MIN_REALTIME_FACTOR = 0.01
 
 
 @dataclass(frozen=True)
@@ -104,6 +110,8 @@ class Config:
     telemetry_path: Path | None
     telemetry_batch: int
     socket_path: Path
+    telemetry_on_failure: str = "stop"  # writer failed: "stop" (safe stop, exit 3) or "continue" without telemetry
+    guard: GuardConfig | None = None  # interference zones (robot file and [guard]), if any
 
 
 def default_socket_path() -> Path:
@@ -123,7 +131,9 @@ def load_config(path, *, sim: bool = False) -> Config:
         raise robot_t.error("description", f"{robot_file} not found (paths are relative to the configuration's folder)")
     try:
         model = load_robot(robot_file)
-    except ConfigError:
+    except ConfigError as e:
+        if not e.key_path:  # the file as a whole is wrong: say where it was named
+            raise robot_t.error("description", f"{e.expected}; got {robot_file}") from None
         raise
     except RtctlError as e:
         raise robot_t.error("description", f"a valid robot description ({e})") from None
@@ -136,14 +146,19 @@ def load_config(path, *, sim: bool = False) -> Config:
     devices = _devices(t, model, sim_t is not None)
     controllers = _controllers(t, model)
     _check_owners(t, controllers)
-    trajectory = _trajectory(t.table("trajectory", None), model)
+    trajectory_t = t.table("trajectory", None)
+    trajectory = _trajectory(trajectory_t, model)
+    guard = load_guard(t.table("guard", None), robot_file, model)
+    if trajectory is not None:
+        check_waypoints(trajectory_t, guard, trajectory.waypoints)
     safety = _safety(t.table("safety", None))
     tele = t.table("telemetry", None)
-    telemetry_path, batch = None, 500
+    telemetry_path, batch, on_failure = None, 500, "stop"
     if tele is not None:
         p = tele.str("path", "")
         telemetry_path = (base / p).resolve() if p else None
         batch = tele.int("batch_rows", 500, min=1, max=100_000)
+        on_failure = tele.str("on_failure", "stop", choices=("stop", "continue"))
         tele.done()
     control = t.table("control", None)
     socket_path = default_socket_path()
@@ -154,7 +169,7 @@ def load_config(path, *, sim: bool = False) -> Config:
         raise t.error("loop.realtime_factor", "1.0 unless the devices are simulated ([sim] or --sim)")
     t.done()
     return Config(path, robot_file, model, loop, devices, controllers, trajectory, safety, sim_t,
-                  telemetry_path, batch, socket_path)
+                  telemetry_path, batch, socket_path, on_failure, guard)
 
 
 def _loop(t: Table | None) -> LoopConfig:
@@ -168,18 +183,26 @@ def _loop(t: Table | None) -> LoopConfig:
             raise rt_t.error("cpus", f"an array of CPU numbers, got {cpus!r}")
         rt = RtSettings(priority=rt_t.int("priority", 0, min=0, max=99), cpus=tuple(cpus),
                         mlockall=rt_t.bool("mlockall", False),
-                        timer_slack_ns=rt_t.int("timer_slack_ns", 0, min=0),
+                        timer_slack_ns=rt_t.int("timer_slack_ns", 0, min=0, max=MAX_TIMER_SLACK_NS),
                         gc_freeze=rt_t.bool("gc_freeze", True))
         rt_t.done()
     cfg = LoopConfig(
-        rate_hz=t.float("rate_hz", 1000.0, positive=True, max=100_000.0),
-        overrun_limit=t.int("overrun_limit", 50, min=1),
-        spin_us=t.float("spin_us", 200.0, min=0.0),
-        realtime_factor=t.float("realtime_factor", 1.0, min=0.0, max=1000.0),
+        rate_hz=t.float("rate_hz", 1000.0, positive=True, min=MIN_RATE_HZ, max=100_000.0),
+        overrun_limit=t.int("overrun_limit", 50, min=1, max=1_000_000),
+        spin_us=t.float("spin_us", 200.0, min=0.0, max=1e6 / MIN_RATE_HZ),
+        realtime_factor=realtime_factor(t.float("realtime_factor", 1.0), t.error, "realtime_factor"),
         rt=rt,
     )
     t.done()
     return cfg
+
+
+def realtime_factor(value: float, error, key: str) -> float:
+    """0 (lock-step) or within [MIN_REALTIME_FACTOR, 1000]: a slower pace would leave the loop
+    asleep for minutes between ticks."""
+    if not (value == 0.0 or MIN_REALTIME_FACTOR <= value <= 1000.0):
+        raise error(key, f"0 (as fast as possible) or a number in [{MIN_REALTIME_FACTOR:g}, 1000], got {value!r}")
+    return value
 
 
 def joint_indices(t: Table, key: str, model: Model, *, allow_empty: bool = False) -> tuple[int, ...]:
@@ -269,21 +292,15 @@ def _trajectory(t: Table | None, model: Model) -> TrajectoryConfig | None:
     if t is None:
         return None
     unit = t.str("unit", "rad", choices=("deg", "rad"))
-    raw = t.raw("waypoints")
-    ok = isinstance(raw, list) and raw and all(
-        isinstance(w, list) and len(w) == model.nq and all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in w)
-        for w in raw)
-    if not ok:
-        raise t.error("waypoints", f"a non-empty array of waypoints, each {model.nq} numbers")
     scale = np.where(model.joint_types == 0, np.pi / 180.0, 1.0) if unit == "deg" else np.ones(model.nq)
-    wp = np.array(raw, dtype=float) * scale
+    wp = t.matrix("waypoints", model.nq) * scale
     for k, w in enumerate(wp):
         bad = np.flatnonzero((w < model.q_min) | (w > model.q_max))
         if bad.size:
             j = bad[0]
             raise t.error(f"waypoints[{k}][{j}]", f"within {model.joint_names[j]}'s limits "
                           f"[{model.q_min[j] / scale[j]:g}, {model.q_max[j] / scale[j]:g}] {unit}")
-    acc = t.vector("max_acceleration", model.nq, None)
+    acc = t.vector("max_acceleration", model.nq, None, min=1e-6)
     durations = t.vector("durations", None, None)
     if durations is not None and (not np.all(durations > 0) or len(durations) != len(wp)):
         raise t.error("durations", f"{len(wp)} positive numbers (s), one per motion segment from the start "

@@ -27,15 +27,17 @@ import numpy as np
 import structlog
 
 from rtctl import jsonout, logs
-from rtctl.config import load_config
+from rtctl.cli import exit_code_for
+from rtctl.config import load_config, realtime_factor
 from rtctl.control_socket import ControlServer
-from rtctl.errors import ConfigError, HardwareError, RtctlError
+from rtctl.errors import ConfigError, HardwareError, RtctlError, TelemetryError, TrajectoryError
+from rtctl.guard import run as guarded
 from rtctl.hal import JointCommand, Status
 from rtctl.model.dynamics import gravity as gravity_of
 from rtctl.runtime import build
 from rtctl.safety import SafetyStage, Verdict
 from rtctl.tick import Tick
-from rtctl.timing import PHASES, Ticker, apply_rt
+from rtctl.timing import PHASES, MonotonicClock, Ticker, apply_rt
 from rtctl.trajectory import JointLimits, hold, retarget, through_waypoints
 
 EXIT_OK, EXIT_FAULT, EXIT_HARDWARE = 0, 3, 4
@@ -47,11 +49,7 @@ log = structlog.get_logger("rtctl.daemon")
 def run(args) -> int:
     fmt = logs.resolve_format(args.log_format)
     logs.configure(fmt, level=args.log_level)
-    cfg = load_config(args.config, sim=args.sim)
-    if args.realtime_factor is not None:
-        cfg = _with_realtime_factor(cfg, args.realtime_factor)
-    runtime = build(cfg)
-    daemon = Daemon(cfg, runtime, args)
+    daemon = prepare(args)
     daemon.summary_line = fmt == "json"  # on a terminal the table below says it better
     try:
         return daemon.run()
@@ -62,9 +60,22 @@ def run(args) -> int:
             print(format_summary(daemon.summary), flush=True)
 
 
+def prepare(args) -> "Daemon":
+    """Everything ``run`` does before it touches anything — parse, validate every plug-in's
+    options, plan the trajectory — so ``rtctl check`` runs exactly this (ConfigError: exit 2)."""
+    cfg = load_config(args.config, sim=args.sim)
+    if getattr(args, "realtime_factor", None) is not None:
+        cfg = _with_realtime_factor(cfg, args.realtime_factor)
+    return Daemon(cfg, build(cfg), args)
+
+
 def _with_realtime_factor(cfg, factor: float):
-    if factor < 0 or (factor != 1.0 and cfg.sim is None):
-        raise ConfigError("<command line>", "--realtime-factor", "≥ 0, and ≠ 1 only with simulated devices")
+    def error(key, expected):
+        return ConfigError("<command line>", key, expected)
+
+    factor = realtime_factor(factor, error, "--realtime-factor")
+    if factor != 1.0 and cfg.sim is None:
+        raise error("--realtime-factor", "1 unless the devices are simulated ([sim] or --sim)")
     return replace(cfg, loop=replace(cfg.loop, realtime_factor=factor))
 
 
@@ -78,30 +89,45 @@ class Daemon:
         self.summary: dict | None = None  # written by _finish
         self.summary_line = True  # log the summary as one event (the JSON log's last line)
         self.limits = _trajectory_limits(cfg)
+        self._check_trajectory()
+        self.guard = guarded.runtime_guard(cfg, self.limits)
         self.safety = SafetyStage.from_model(
             self.model, cfg.safety, device_joints=runtime.device_joints,
-            gravity=lambda q: gravity_of(self.model, q))
+            gravity=lambda q: gravity_of(self.model, q), guard=self.guard)
+        # a signal's stop request cuts the sleep to the next deadline short: SIGTERM is answered
+        # at once, however long the period
+        clock = MonotonicClock(round(cfg.loop.spin_us * 1e3), interrupted=lambda: self.stop_reason is not None)
         self.ticker = Ticker(round(1e9 * cfg.loop.period), realtime_factor=cfg.loop.realtime_factor,
-                             max_consecutive_overruns=cfg.loop.overrun_limit,
-                             spin_margin_ns=round(cfg.loop.spin_us * 1e3))
+                             max_consecutive_overruns=cfg.loop.overrun_limit, clock=clock)
         self.recorder = None
+        self.telemetry_failure: str | None = None
         self.tick = Tick(runtime, self.ticker, self.safety)
 
     # -- lifecycle ---------------------------------------------------------------------
     def run(self) -> int:
         path = self.args.telemetry or self.cfg.telemetry_path
         server = None
+        # from here on SIGTERM/SIGINT only set the stop flag: a signal during start-up stops
+        # the run at its first tick, with the same controlled stop and summary as later
+        previous = {s: signal.signal(s, self._on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
         try:
+            # the exclusive resources first (a second daemon on the same socket or telemetry
+            # file gives up here), then truncate: nothing another run holds is overwritten
+            server = ControlServer(self.args.socket or self.cfg.socket_path, self._handle, n_joints=self.model.nq)
             if path:
                 self.recorder = self._open_recorder(Path(path))
-            server = ControlServer(self.args.socket or self.cfg.socket_path, self._handle, n_joints=self.model.nq)
             for report in apply_rt(self._rt_settings(), enforce=self.args.enforce_rt):
                 log.info("rt knob", **report.as_dict())
             self._bring_up()
             self._loop(server)
+            self._fault_if_latched()
         except HardwareError as e:
             log.error("hardware failed", error=str(e))
             self.exit_code, self.stop_reason = EXIT_HARDWARE, f"hardware: {e}"
+            raise
+        except RtctlError as e:  # the summary says what the process exits with
+            self.exit_code = exit_code_for(e)[0]
+            self.stop_reason = self.stop_reason or str(e)
             raise
         finally:
             for dev in self.rt.all_devices:
@@ -109,7 +135,18 @@ class Daemon:
             if server is not None:
                 server.close()
             self._finish()
+            for s, h in previous.items():
+                signal.signal(s, h)
         return self.exit_code
+
+    def _fault_if_latched(self) -> None:
+        """A run that ends while its fallback is engaged (a fault not cleared by ``reset``,
+        e.g. within the fault's off-delay when the duration ends) is a fault stop, not a clean one."""
+        pending = [f.reason for f in self.safety.faults]  # (a normal stop latches none)
+        if pending and self.exit_code == EXIT_OK:
+            self.exit_code = EXIT_FAULT
+            log.error("fault: safe stop", reason="the run ended with faults latched: " + "; ".join(pending[:3]),
+                      stop_reason=self.stop_reason)
 
     def _rt_settings(self):
         """The knobs to apply: ``--enforce-rt`` asks for the full set (what is not configured
@@ -143,7 +180,11 @@ class Daemon:
             idx = self.rt.device_joints[i]
             np.put(state.position, idx, dev.state.position)
             np.put(state.velocity, idx, dev.state.velocity)
-        self.tick.trajectory = self._initial_trajectory(state.position.copy())
+        guarded.check_start(self.cfg, state.position)
+        try:
+            self.tick.trajectory = self._initial_trajectory(state.position.copy())
+        except TrajectoryError as e:  # the devices report a start the limits do not allow
+            raise HardwareError(f"cannot start the trajectory from the measured position: {e}") from None
         self.tick.trajectory.sample(0.0, self.rt.ref.q, self.rt.ref.qd, self.rt.ref.qdd)
         self._warm_up()
         for c in self.rt.controllers:
@@ -174,15 +215,28 @@ class Daemon:
         spare.check(0.0, 1, self.rt.state, statuses, scratch, False, "warm-up")  # → hold
         spare.estop("warm-up")
         spare.check(0.0, 2, self.rt.state, statuses, scratch, True)  # → damped stop
+        guarded.warm_up(self.cfg, self.guard)
         for dev in self.rt.all_devices:
             warm_up = getattr(dev, "warm_up", None)
             if warm_up is not None:
                 warm_up()
 
+    def _check_trajectory(self) -> None:
+        """Plan the configured trajectory from its first waypoint now: the measured start is
+        known only once the devices are up, and a plan the limits refuse must exit 2 before."""
+        tcfg = self.cfg.trajectory
+        if tcfg is not None:
+            try:
+                through_waypoints(tcfg.waypoints, self.limits, smooth=tcfg.smooth, dwell=tcfg.dwell)
+            except TrajectoryError as e:
+                raise ConfigError(self.cfg.file, "trajectory", f"waypoints the limits allow to plan ({e})") from None
+
     def _initial_trajectory(self, q0):
         tcfg = self.cfg.trajectory
         if tcfg is None:
             return hold(q0)
+        if self.cfg.guard is not None:
+            return guarded.initial_trajectory(self.cfg, q0, self.limits)
         return through_waypoints(tcfg.waypoints, self.limits, start=q0, smooth=tcfg.smooth, dwell=tcfg.dwell,
                                  durations=tcfg.durations)
 
@@ -190,33 +244,40 @@ class Daemon:
         ticker, tick, safety = self.ticker, self.tick, self.safety
         duration = self.args.duration
         stopping_since = None
-        previous = {s: signal.signal(s, self._on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
-        try:
-            ticker.start()
-            while True:
-                ticker.wait()
-                t = ticker.sim_time_s
-                if self.stop_reason is None and duration is not None and t >= duration:
-                    self.stop_reason = "duration reached"
-                if self.stop_reason is not None and stopping_since is None:
-                    stopping_since = t
-                    safety.stop(self.stop_reason)  # category 1 like an e-stop, but not a fault
-                tick(t)
-                if server is not None:
-                    server.poll()
-                if ticker.end_tick() and stopping_since is None:
-                    self._fault("overrun limit reached")
-                # the stage, not this tick's verdict: a `reset` in poll() may just have re-armed it
-                if safety.deactivated or (stopping_since is not None and t - stopping_since > STOP_GRACE_S):
-                    if self.stop_reason is None and not self.estopped:
-                        self._fault("safety stop: " + "; ".join(f.reason for f in safety.faults[-3:]))
-                    for dev in self.rt.all_devices:
-                        dev.deactivate()
-                    if self.stop_reason is not None:
-                        break
-        finally:
-            for s, h in previous.items():
-                signal.signal(s, h)
+        ticker.start()
+        while True:
+            ticker.wait()
+            t = ticker.sim_time_s
+            if self.stop_reason is None and duration is not None and t >= duration:
+                self.stop_reason = "duration reached"
+            if self.stop_reason is not None and stopping_since is None:
+                stopping_since = t
+                safety.stop(self.stop_reason)  # category 1 like an e-stop, but not a fault
+            tick(t)
+            if tick.recorder is not None and tick.recorder.failure is not None:
+                self._telemetry_failed(tick.recorder.failure)
+            if server is not None:
+                server.poll()
+            if ticker.end_tick() and stopping_since is None:
+                self._fault("overrun limit reached")
+            # the stage, not this tick's verdict: a `reset` in poll() may just have re-armed it
+            if safety.deactivated or (stopping_since is not None and t - stopping_since > STOP_GRACE_S):
+                if self.stop_reason is None and not self.estopped:
+                    self._fault("safety stop: " + "; ".join(f.reason for f in safety.faults[-3:]))
+                for dev in self.rt.all_devices:
+                    dev.deactivate()
+                if self.stop_reason is not None:
+                    break
+
+    def _telemetry_failed(self, reason: str) -> None:
+        """The writer cannot write (a full disk): say so now, stop recording, and apply the
+        policy — a safe stop (default), or running on without telemetry."""
+        self.tick.recorder = None
+        self.telemetry_failure = reason
+        policy = self.cfg.telemetry_on_failure
+        log.error("telemetry failed", reason=reason, on_failure=policy, rows=self.recorder.rows)
+        if policy == "stop":
+            self._fault(f"telemetry: {reason}")
 
     def _fault(self, reason: str) -> None:
         if self.stop_reason is None:
@@ -276,8 +337,23 @@ class Daemon:
         if points.shape[1] != self.model.nq:
             raise RtctlError(f"expected {self.model.nq} joint values per point, got {points.shape[1]}")
         ref, t = self.rt.ref, self.ticker.sim_time_s
-        self.tick.trajectory = retarget(t, ref.q, ref.qd, ref.qdd, points, self.limits, duration=req.get("duration"))
-        return {"ok": True, "t_start": t, "t_end": self.tick.trajectory.t_end}
+        times = req.get("times")
+        duration = times[0] if times is not None else req.get("duration")
+        extra = {}
+        try:  # each waypoint is reached at its time, or the move is refused with the reason
+            if self.cfg.guard is not None and times is None:  # around the interference zones
+                trajectory, extra = guarded.move_trajectory(self.cfg, t, ref, points, self.limits, duration)
+            else:
+                trajectory = retarget(t, ref.q, ref.qd, ref.qdd, points, self.limits, duration=duration,
+                                      durations=None if times is None else np.diff(times))
+                guarded.check_timed_move(self.cfg, trajectory, t)
+        except TrajectoryError as e:
+            raise RtctlError(f"move refused: {e}") from None
+        asked = times[-1] if times is not None else duration
+        if asked is not None and not extra.get("bypass") and abs(trajectory.t_end - t - asked) > 1e-9 * max(1.0, asked):
+            raise RtctlError(f"move refused: it would end after {trajectory.t_end - t:.6g} s, not the {asked:.6g} s asked")
+        self.tick.trajectory = trajectory
+        return {"ok": True, "t_start": t, "t_end": trajectory.t_end, **extra}
 
     def _status(self) -> dict:
         s = self.rt.state
@@ -302,7 +378,12 @@ class Daemon:
                 col = name if name not in schema else f"{c.name}.{name}"
                 schema[col] = (arr.shape, arr.dtype.str)
                 sources[col] = arr
-        path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            where = ("<command line>", "--telemetry") if self.args.telemetry else (self.cfg.file, "telemetry.path")
+            raise ConfigError(*where, f"a file in a directory that exists or can be created; "
+                                      f"{path.parent}: {e.strerror or e}") from None
         meta = {"config": str(self.cfg.file), "robot": self.model.name, "joints": list(self.model.joint_names),
                 "rate_hz": self.cfg.loop.rate_hz, "phases": list(PHASES)}
         for c in rt.controllers:  # e.g. the names of a vector column's entries: "leg_gates_labels"
@@ -322,12 +403,20 @@ class Daemon:
                    "devices": {d.name: d.diagnostics() for d in self.rt.all_devices}}
         if self.recorder is not None:
             summary["telemetry"] = {"path": str(self.recorder.path), "rows": self.recorder.rows,
-                                    "dropped_rows": self.recorder.dropped_rows}
-            self.recorder.close(summary=summary)
+                                    "dropped_rows": self.recorder.dropped_rows, "error": self.telemetry_failure}
+            try:
+                self.recorder.close(summary=summary)
+            except TelemetryError as e:  # the summary is written all the same
+                if self.telemetry_failure is None:  # (else reported when it happened)
+                    log.error("telemetry failed", reason=str(e))
+                summary["telemetry"]["error"] = str(e)
         self.summary = summary
         if self.args.summary:
-            Path(self.args.summary).parent.mkdir(parents=True, exist_ok=True)
-            Path(self.args.summary).write_text(jsonout.dumps(summary, indent=2))
+            try:
+                Path(self.args.summary).parent.mkdir(parents=True, exist_ok=True)
+                Path(self.args.summary).write_text(jsonout.dumps(summary, indent=2))
+            except OSError as e:
+                log.error("summary not written", path=str(self.args.summary), reason=e.strerror or str(e))
         if not self.summary_line:
             return
         timing = summary["timing"]

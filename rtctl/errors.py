@@ -41,12 +41,26 @@ class ProtocolError(HardwareError):
     """Bytes on a wire do not decode (wrong length, unknown id, corrupt frame)."""
 
 
+class SettingsError(RtctlError):
+    """A device cannot do these settings (e.g. a framegrabber window outside its sampling grid);
+    ``key`` names the setting, so a configuration error can name its key path."""
+
+    def __init__(self, key: str, expected: str):
+        self.key = key
+        self.expected = expected
+        super().__init__(f"{key}: {expected}")
+
+
 class BusLoadError(ConfigError):
     """A bus would be loaded beyond its configured limit at the configured rate."""
 
 
 class TrajectoryError(RtctlError):
     """A trajectory cannot be planned as asked (duration below the limits' minimum, waypoint out of range)."""
+
+
+class GuardError(RtctlError):
+    """A target or path is infeasible: inside an interference zone, past a limit, or no way around."""
 
 
 class SafetyError(RtctlError):
@@ -59,6 +73,10 @@ class RealtimeError(RtctlError):
 
 class ControlSocketError(RtctlError):
     """The control socket is unreachable or answered with an error."""
+
+
+class ResourceBusyError(RtctlError):
+    """An exclusive resource (control socket, telemetry file) is held by another running daemon."""
 
 
 class TelemetryError(RtctlError):

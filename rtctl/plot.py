@@ -4,8 +4,10 @@ Panels, each drawn only when its columns were recorded: joint tracking (``q`` ag
 ``q_des``, one panel per joint), tracking errors ``q_des − q``, torques ``tau``, timing
 histograms (every column named ``*_ns``: per-phase compute times, wake lateness), the
 sliding variable ``s``, adaptive estimates (columns starting with ``params_hat`` or
-``pi_hat``), and the leg automaton's gait phases (``leg_state`` with its gates, actions and
-the foot loads). The time axis is ``t`` when recorded, the tick index otherwise.
+``pi_hat``), the leg automaton's gait phases (``leg_state`` with its gates, actions and
+the foot loads), and the tool marker seen by a camera (``marker_measured_px`` against
+``marker_predicted_px``, and their difference ``marker_error_px``). The time axis is ``t``
+when recorded, the tick index otherwise.
 
 matplotlib is the optional extra ``plot``; it is imported here only, and drawn through its
 object API with the Agg canvas (no pyplot state, no display needed).
@@ -149,6 +151,29 @@ def _leg_actions(t, tel):
     return draw
 
 
+def _marker(t, tel):
+    def draw(ax):
+        measured, predicted = _columns(tel, "marker_measured_px"), _columns(tel, "marker_predicted_px")
+        for k, axis in enumerate("uv"):
+            ax.plot(t, predicted[:, k], "--", lw=1.0, label=f"{axis} predicted")
+            ax.plot(t, measured[:, k], lw=0.8, label=f"{axis} measured")
+        ax.set_title("tool marker in the image")
+        ax.set_ylabel("px")
+        ax.legend(fontsize=6, loc="best")
+    return draw
+
+
+def _marker_error(t, tel):
+    def draw(ax):
+        error = _columns(tel, "marker_error_px")
+        for k, axis in enumerate("uv"):
+            ax.plot(t, error[:, k], lw=0.8, label=axis)
+        ax.set_title("marker measured − predicted")
+        ax.set_ylabel("px")
+        ax.legend(fontsize=6, loc="best")
+    return draw
+
+
 def _panels(tel):
     t = tel["t"] if "t" in tel else np.arange(tel.rows)
     panels = []
@@ -170,6 +195,8 @@ def _panels(tel):
         panels.append(_gait_phases(t, tel))
     if "leg_actions" in tel:
         panels.append(_leg_actions(t, tel))
+    if "marker_measured_px" in tel and "marker_predicted_px" in tel:
+        panels += [_marker(t, tel), _marker_error(t, tel)]
     estimates = [name for name in tel.columns if name.startswith(ESTIMATE_PREFIXES)]
     if estimates:
         panels.append(_estimates(t, tel, estimates))

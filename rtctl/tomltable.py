@@ -43,15 +43,33 @@ def _default_if_absent(read):
 
 
 def load_toml(path) -> "Table":
+    """The file's top-level Table. Not UTF-8, not TOML, unreadable, or holding a NaN or an
+    infinity anywhere (TOML allows ``nan`` and ``inf``; no setting does) → ConfigError."""
     path = Path(path)
     try:
         with path.open("rb") as f:
             data = tomllib.load(f)
     except FileNotFoundError:
         raise ConfigError(path, "", "not found") from None
+    except OSError as e:
+        raise ConfigError(path, "", f"not readable ({e.strerror or e})") from None
+    except UnicodeDecodeError as e:
+        raise ConfigError(path, "", f"not UTF-8 text ({e})") from None
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(path, "<syntax>", f"valid TOML ({e})") from None
+    _refuse_non_finite(data, path, "")
     return Table(data, path, "")
+
+
+def _refuse_non_finite(value, file, key: str) -> None:
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(file, key, f"a finite number, got {value!r}")
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _refuse_non_finite(v, file, f"{key}.{k}" if key else k)
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _refuse_non_finite(v, file, f"{key}[{i}]")
 
 
 class Table:
@@ -117,15 +135,36 @@ class Table:
         if hi is not None and value > hi:
             raise self.error(name, f"a number ≤ {hi}, got {value!r}")
 
-    @_default_if_absent
-    def vector(self, name, length=None, default=_MISSING) -> np.ndarray:
+    def vector(self, name, length=None, default=_MISSING, *, min=None, max=None) -> np.ndarray:
+        """An array of finite numbers (of ``length``, if given), each within [min, max]; an
+        absent key gives ``default`` as an array (None stays None)."""
         expected = f"an array of {length} numbers" if length else "an array of numbers"
-        value = self._get(name, default, expected)
+        try:
+            value = self._get(name, default, expected)
+        except _Default as d:
+            return None if d.value is None else np.array(d.value, dtype=float)
         ok = isinstance(value, list) and all(
             isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) for x in value
         )
         if not ok or (length is not None and len(value) != length):
             raise self.error(name, f"{expected}, got {value!r}")
+        for i, x in enumerate(value):
+            self._check_range(f"{name}[{i}]", x, min, max, False)
+        return np.array(value, dtype=float)
+
+    @_default_if_absent
+    def matrix(self, name, columns: int, default=_MISSING) -> np.ndarray:
+        """A non-empty array of rows, each an array of ``columns`` finite numbers → (rows, columns)."""
+        expected = f"a non-empty array of arrays of {columns} numbers"
+        value = self._get(name, default, expected)
+        if not isinstance(value, list) or not value:
+            raise self.error(name, f"{expected}, got {value!r}")
+        for i, row in enumerate(value):
+            if not isinstance(row, list) or len(row) != columns:
+                raise self.error(f"{name}[{i}]", f"an array of {columns} numbers, got {row!r}")
+            for j, x in enumerate(row):
+                if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+                    raise self.error(f"{name}[{i}][{j}]", f"a finite number, got {x!r}")
         return np.array(value, dtype=float)
 
     @_default_if_absent

@@ -143,7 +143,7 @@ def bench_soak(config=None, minutes: float = 10.0) -> dict:
 
     if minutes <= 0:
         raise ValueError("minutes must be positive")
-    logs.configure(json=True, level="warning", stream=sys.stderr)
+    logs.configure("json", level="warning", stream=sys.stderr)
     config = Path(config or SHIPPED)
     load = os.getloadavg()
     sim = HilSimProcess(config)

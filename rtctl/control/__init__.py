@@ -15,6 +15,7 @@ CONTROLLERS = {
     "slotine_li": "rtctl.control.slotine_li:SlotineLi",
     "arma_gmv": "rtctl.control.arma_gmv:ArmaGmv",
     "leg_automaton": "rtctl.control.leg_automaton:LegAutomaton",
+    "marker_observer": "rtctl.vision.observer:MarkerObserver",  # owns no command: watches the tool marker
 }
 
 

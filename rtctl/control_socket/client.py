@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import os
 import socket
+import time
 
 from rtctl.control_socket.framing import HEADER, decode, encode
 from rtctl.errors import ControlSocketError
@@ -16,6 +17,19 @@ def _recv_exactly(sock: socket.socket, n: int, path: str) -> bytes:
             raise ControlSocketError(f"the daemon on {path} closed the connection without a complete reply")
         data += chunk
     return bytes(data)
+
+
+def _connect(sock: socket.socket, path: str, deadline: float) -> None:
+    """connect(), retried while the daemon's accept queue is full (EAGAIN: a connection
+    storm; the daemon drains it every tick) until ``deadline``."""
+    while True:
+        try:
+            sock.connect(path)
+            return
+        except BlockingIOError:
+            if time.monotonic() >= deadline:
+                raise socket.timeout("the daemon's connection queue stayed full") from None
+            time.sleep(0.002)
 
 
 def request(path, cmd: str, *, timeout: float = 5.0, **fields) -> dict:
@@ -34,7 +48,7 @@ def request(path, cmd: str, *, timeout: float = 5.0, **fields) -> dict:
     sock.settimeout(timeout)
     try:
         try:
-            sock.connect(path)
+            _connect(sock, path, time.monotonic() + timeout)
         except FileNotFoundError:
             raise ControlSocketError(f"no rtctl daemon: control socket {path} does not exist "
                                      "(is `rtctl run` running, with this --socket?)") from None
@@ -44,6 +58,8 @@ def request(path, cmd: str, *, timeout: float = 5.0, **fields) -> dict:
         except PermissionError:
             raise ControlSocketError(f"permission denied on {path}: the socket is mode 0600, "
                                      "run as the daemon's user") from None
+        except socket.timeout:
+            raise ControlSocketError(f"the daemon on {path} did not accept a connection within {timeout:g} s") from None
         except OSError as exc:
             raise ControlSocketError(f"cannot connect to control socket {path}: {exc}") from None
         try:

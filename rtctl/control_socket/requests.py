@@ -10,7 +10,9 @@ reset      — (clear latched faults)
 move       exactly one of ``q``: [n numbers] (target joint positions) or ``waypoints``:
            [[n numbers], ...]; optional ``duration``: number > 0 (with ``q``), ``times``:
            [numbers > 0, strictly increasing, one per waypoint] (with ``waypoints``; seconds
-           from the start of the move), ``deg``: bool (positions in degrees; default false)
+           from the start of the move at which each waypoint is reached: honoured exactly, or
+           the move is refused with the limit it breaks), ``deg``: bool (positions in
+           degrees; default false)
 =========  ====================================================================================
 
 :func:`validate` turns a decoded request into the dict the daemon's handler receives:

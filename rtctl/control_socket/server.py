@@ -5,10 +5,18 @@ stop / estop / move at a tick boundary, so a thread would still hand every reque
 loop and wait for its reply; and while that thread decodes a request it holds the GIL the
 loop may need at its next wake-up. Polled from the loop (once per tick, or every k-th tick,
 in the slack after ``write``/``record``), all the work happens where the loop chooses, and
-each call is bounded: one zero-timeout ``poll`` syscall when idle (nothing else), at most one
-``accept``, one ``recv`` of at most 64 KiB + 4 bytes per ready connection and one request
-handled per connection, at most ``max_clients`` connections. The handler runs in the loop
-thread: it must be quick (record the command for the next tick, build the status reply).
+each call is bounded: one zero-timeout ``poll`` syscall when idle (nothing else), at most
+``ACCEPTS_PER_POLL`` accepts, one ``recv`` of at most 64 KiB + 4 bytes per ready connection
+and one request handled per connection, at most ``max_clients`` connections. The handler runs
+in the loop thread: it must be quick (record the command for the next tick, build the status
+reply).
+
+A new connection is never refused, so ``estop`` and ``stop`` always get through: when
+``max_clients`` connections are open, the one that has waited longest without a request is
+dropped for the newcomer — closing ones first, then idle ones, then slow ones (mid-frame) —
+and a newcomer's first request is read as soon as it is accepted. An idle connection is
+closed after ``idle_timeout`` s (2 s), a frame must be complete within ``request_timeout`` s.
+Idle or slow clients can therefore delay a newcomer by at most one poll, never lock it out.
 
 Robustness: a request above the size limit, a frame cut short (the peer closed, or stalled
 for ``request_timeout`` s mid-frame), malformed msgpack, an unknown command or wrong fields
@@ -34,17 +42,25 @@ log = structlog.get_logger("rtctl.control_socket")
 _IN = select.POLLIN | select.POLLPRI
 _BROKEN = select.POLLHUP | select.POLLERR | select.POLLNVAL
 _MAX_PENDING_REPLY = 1 << 20  # a client that reads nothing back is dropped past this
+ACCEPTS_PER_POLL = 4  # a connection storm costs a poll at most this many accepts
+BACKLOG = 64  # connections the kernel queues between polls (a full queue makes connect() wait)
 
 
 class _Connection:
-    __slots__ = ("sock", "inbuf", "outbuf", "deadline", "closing")
+    __slots__ = ("sock", "inbuf", "outbuf", "deadline", "closing", "last_request")
 
-    def __init__(self, sock: socket.socket, deadline: float):
+    def __init__(self, sock: socket.socket, now: float, deadline: float):
         self.sock = sock
         self.inbuf = bytearray()
         self.outbuf = bytearray()
         self.deadline = deadline
         self.closing = False  # close once outbuf is sent (after a framing error)
+        self.last_request = now  # accepted, or its last request answered: who is dropped first
+
+    def eviction_rank(self) -> tuple:
+        """Lower is dropped first: closing, then idle, then mid-frame; oldest first in each."""
+        busy = 0 if self.closing else (2 if self.inbuf else 1)
+        return busy, self.last_request
 
 
 class ControlServer:
@@ -55,7 +71,9 @@ class ControlServer:
     """
 
     def __init__(self, path, handler, *, n_joints: int | None = None, max_request: int = MAX_REQUEST_BYTES,
-                 max_clients: int = 8, request_timeout: float = 5.0, idle_timeout: float = 60.0):
+                 max_clients: int = 8, request_timeout: float = 2.0, idle_timeout: float = 2.0):
+        if max_clients < 1:
+            raise ValueError("max_clients must be >= 1")
         self.path = os.fspath(path)
         self.handler = handler
         self.n_joints = n_joints
@@ -111,7 +129,7 @@ class ControlServer:
         finally:
             os.umask(old_umask)
         os.chmod(self.path, 0o600)
-        sock.listen(self.max_clients)
+        sock.listen(BACKLOG)
         sock.setblocking(False)
         return sock
 
@@ -151,7 +169,7 @@ class ControlServer:
         listener_fd = self._listener.fileno()
         for fd, event in events:
             if fd == listener_fd:
-                self._accept()
+                handled += self._accept()
                 continue
             conn = self._clients.get(fd)
             if conn is None:
@@ -169,22 +187,27 @@ class ControlServer:
             self._sweep()
         return handled
 
-    def _accept(self) -> None:
-        try:
-            sock, _ = self._listener.accept()
-        except (BlockingIOError, InterruptedError):
-            return
-        if len(self._clients) >= self.max_clients:
-            sock.setblocking(False)
+    def _accept(self) -> int:
+        """Accept what is queued (at most ACCEPTS_PER_POLL), making room by dropping the
+        stalest connection, and serve each newcomer's first request if it is already here."""
+        handled = 0
+        for _ in range(ACCEPTS_PER_POLL):
             try:
-                sock.send(encode({"ok": False, "error": f"too many control connections (max {self.max_clients})"}))
-            except OSError:
-                pass
-            sock.close()
-            return
-        sock.setblocking(False)
-        self._clients[sock.fileno()] = _Connection(sock, time.monotonic() + self.idle_timeout)
-        self._poller.register(sock, _IN)
+                sock, _ = self._listener.accept()
+            except (BlockingIOError, InterruptedError):
+                break
+            except OSError as exc:  # e.g. EMFILE: leave it queued, keep serving the others
+                log.warning("control_accept_failed", error=str(exc))
+                break
+            if len(self._clients) >= self.max_clients:
+                self._drop(min(self._clients, key=lambda fd: self._clients[fd].eviction_rank()))
+            sock.setblocking(False)
+            now = time.monotonic()
+            fd = sock.fileno()
+            conn = self._clients[fd] = _Connection(sock, now, now + self.idle_timeout)
+            self._poller.register(sock, _IN)
+            handled += self._receive(fd, conn)
+        return handled
 
     def _receive(self, fd: int, conn: _Connection) -> int:
         if len(conn.inbuf) >= self.max_request + HEADER.size:
@@ -218,6 +241,7 @@ class ControlServer:
         body = bytes(conn.inbuf[HEADER.size:HEADER.size + length])
         del conn.inbuf[:HEADER.size + length]
         self._reply(fd, conn, self._answer(body))
+        conn.last_request = time.monotonic()
         if conn.inbuf and fd in self._clients:
             # Pipelined bytes: poll() has no news about them, and one request per connection
             # per call keeps the call bounded, so they are served at the next call.

@@ -58,7 +58,7 @@ def model_arrays(model: Model) -> ModelArrays:
 class Data:
     """Preallocated workspace for one model (see the module docstring for the arrays)."""
 
-    __slots__ = ("X", "body", "Ic", "H", "bias", "zero", "I6", "B6", "M6")
+    __slots__ = ("X", "body", "Ic", "H", "bias", "zero", "I6", "B6", "M6", "checked")
 
     def __init__(self, model: Model):
         n = model.nq
@@ -71,3 +71,4 @@ class Data:
         self.I6 = np.zeros((n, 6, 6))
         self.B6 = np.zeros((n, 6, 6))
         self.M6 = np.zeros((2, 6, 6))
+        self.checked = {}  # per *_into function: the arrays it last accepted (rtctl.model.checks)

@@ -21,16 +21,19 @@ File layout (lengths in metres; angles in ``angle_unit``, "deg" or "rad")::
     motor = { Jm = 200e-6, G = -62.61, B = 1.48e-3, Tc = [0.395, -0.435] }   # optional, motor side
     [tool]                             # optional tool frame in the flange (eq. 6)
     xyz = [0, 0, 0.1]  rpy = [0, 0, 0]
+    [[guard.zones]]                    # optional interference zones (rtctl.guard.config)
 """
 from __future__ import annotations
 
 import numpy as np
 
-from rtctl.model.robot import PRISMATIC, REVOLUTE, DHTable, Model, Motors
+from rtctl.model.robot import MAX_JOINTS, PRISMATIC, REVOLUTE, DHTable, Model, Motors
 from rtctl.model.rotations import hrot_x, hrot_z, homogeneous, rpy_matrix, trans
 from rtctl.tomltable import Table
 
 _JOINT_TYPES = {"revolute": REVOLUTE, "prismatic": PRISMATIC}
+# the range of every number (in the file's units): past these, products overflow or nothing is a robot
+LENGTH, ANGLE, MASS, INERTIA, EFFORT, GEAR = 1e3, 1e4, 1e5, 1e5, 1e7, 1e5
 
 
 def dh_fixed(alpha: float, a: float, d: float, theta0: float) -> np.ndarray:
@@ -56,39 +59,47 @@ def from_table(t: Table) -> Model:
     name = t.str("name")
     unit = t.str("angle_unit", "rad", choices=("deg", "rad"))
     ang = np.pi / 180.0 if unit == "deg" else 1.0
-    gravity = t.vector("gravity", 3, [0.0, 0.0, -9.81])
+    gravity = t.vector("gravity", 3, [0.0, 0.0, -9.81], min=-1e3, max=1e3)
     reconstructed = t.str("reconstructed", None)
     t.str("source", "")
     t.str("convention", "dh", choices=("dh",))
+    t.table("guard", None)  # the robot's interference zones: read by rtctl.guard.config
     joints = t.tables("joints")
-    if not joints:
-        raise t.error("joints", "at least one [[joints]] table")
+    if not 1 <= len(joints) <= MAX_JOINTS:
+        raise t.error("joints", f"1 to {MAX_JOINTS} [[joints]] tables (the robot size rtctl supports), "
+                                f"got {len(joints)}")
 
     names, types, dh_rows, params, limits, motor_rows = [], [], [], [], [], []
     for j in joints:
         jtype = _JOINT_TYPES[j.str("type", "revolute", choices=tuple(_JOINT_TYPES))]
         lin = 1.0 if jtype == PRISMATIC else ang  # unit of this joint's variable
         names.append(j.str("name"))
+        if not names[-1] or names[-1] in names[:-1]:
+            raise j.error("name", f"a joint name used once; {names[-1]!r} is {'taken' if names[-1] else 'empty'}")
         types.append(jtype)
-        row = (j.float("alpha") * ang, j.float("a"), j.float("d"), j.float("theta0", 0.0) * ang)
+        row = (j.float("alpha", min=-ANGLE, max=ANGLE) * ang, j.float("a", min=-LENGTH, max=LENGTH),
+               j.float("d", min=-LENGTH, max=LENGTH), j.float("theta0", 0.0, min=-ANGLE, max=ANGLE) * ang)
         dh_rows.append(row)
         F = dh_fixed(*row)
-        mass = j.float("mass", 0.0, min=0.0)
-        com = j.vector("com", 3, np.zeros(3))
-        Ic = _inertia_matrix(j.vector("inertia", 6, np.zeros(6)))
+        mass = j.float("mass", 0.0, min=0.0, max=MASS)
+        com = j.vector("com", 3, np.zeros(3), min=-LENGTH, max=LENGTH)
+        Ic = _inertia_matrix(j.vector("inertia", 6, np.zeros(6), min=-INERTIA, max=INERTIA))
         if np.any(np.linalg.eigvalsh(Ic) < -1e-12):
             raise j.error("inertia", "a positive semi-definite inertia about the centre of mass")
         # Move from D-H frame i into body i: x_body = R_F x_dh + p_F.
         R, p = F[:3, :3], F[:3, 3]
         params.append(inertial_params(mass, R @ com + p, R @ Ic @ R.T))
-        limits.append((j.float("q_min", -np.inf) * lin, j.float("q_max", np.inf) * lin,
-                       j.float("v_max", np.inf, positive=True) * lin, j.float("tau_max", np.inf, positive=True)))
+        limits.append((j.float("q_min", -np.inf, min=-ANGLE, max=ANGLE) * lin,
+                       j.float("q_max", np.inf, min=-ANGLE, max=ANGLE) * lin,
+                       j.float("v_max", np.inf, positive=True, max=ANGLE) * lin,
+                       j.float("tau_max", np.inf, positive=True, max=EFFORT)))
         if limits[-1][0] >= limits[-1][1]:
             raise j.error("q_max", f"greater than q_min ({limits[-1][0] / lin:g})")
         motor = j.table("motor", None)
         if motor is not None:
-            Jm, G, B = motor.float("Jm", 0.0, min=0.0), motor.float("G", 1.0), motor.float("B", 0.0, min=0.0)
-            Tc = np.abs(motor.vector("Tc", 2, np.zeros(2)))
+            Jm, B = motor.float("Jm", 0.0, min=0.0, max=1.0), motor.float("B", 0.0, min=0.0, max=1.0)
+            G = motor.float("G", 1.0, min=-GEAR, max=GEAR)
+            Tc = np.abs(motor.vector("Tc", 2, np.zeros(2), min=-EFFORT, max=EFFORT))
             motor.done()
             motor_rows.append((G * G * Jm, G * G * B, abs(G) * Tc.mean(), G))
         else:
@@ -104,7 +115,8 @@ def from_table(t: Table) -> Model:
     tool = np.eye(4)
     tool_t = t.table("tool", None)
     if tool_t is not None:
-        tool = homogeneous(rpy_matrix(tool_t.vector("rpy", 3, np.zeros(3)) * ang), tool_t.vector("xyz", 3, np.zeros(3)))
+        tool = homogeneous(rpy_matrix(tool_t.vector("rpy", 3, np.zeros(3), min=-ANGLE, max=ANGLE) * ang),
+                           tool_t.vector("xyz", 3, np.zeros(3), min=-LENGTH, max=LENGTH))
         tool_t.done()
     t.done()
 

@@ -20,8 +20,10 @@ allocates a workspace and its result (~10–20 µs), so use it in scripts and te
     forward_dynamics_into(arrays, data, q, qd, tau, armature, qdd_out)   # (H + diag(armature)) q̈ = τ − C q̇ − G
     coriolis_matrix_into(arrays, data, q, qd, kind, C_out)       # kind: CHRISTOFFEL or CSTAR
 
-All vectors are C-contiguous float64 of length n (armature: zeros for none). Each ``*_into``
-unpacks the arrays and calls one kernel (``rnea_kernel``, ``crba_kernel``,
+All vectors are C-contiguous float64 of length n (armature: zeros for none); each ``*_into``
+checks its arrays (shapes, dtypes, that ``data`` fits ``arrays``) the first time it sees them
+with a ``data`` and raises ValueError, so a wrong size is never a segfault
+(:mod:`rtctl.model.checks`). Each ``*_into`` unpacks the arrays and calls one kernel (``rnea_kernel``, ``crba_kernel``,
 ``forward_dynamics_kernel``, ``coriolis_kernel`` in the algorithm modules), costing ~1–2 µs of
 numba dispatch from Python. Code that is itself compiled (a simulator's substep loop, a
 controller's recursion) should call the kernels — or the passes and the spatial kernels
@@ -42,6 +44,7 @@ import numpy as np
 
 from rtctl.model.coriolis import CHRISTOFFEL, CSTAR, coriolis_kernel, mass_matrix_dot_kernel
 from rtctl.model.crba import crba_kernel
+from rtctl.model.checks import check_into, vector
 from rtctl.model.data import Data, ModelArrays, model_arrays
 from rtctl.model.forward_dynamics import forward_dynamics_kernel
 from rtctl.model.regressor import regressor, slotine_li_regressor
@@ -56,69 +59,77 @@ __all__ = [
 ]
 
 _KINDS = {"christoffel": CHRISTOFFEL, "cstar": CSTAR}
+_SINGULAR = ("H(q) + diag(armature) is not positive definite at this q "
+             "(a joint with no inertia and no armature, or non-physical parameters)")
 
 
 # --- hot path -------------------------------------------------------------------------------
 
 def rnea_into(arrays: ModelArrays, data: Data, q, qd, qdd, tau) -> None:
     """τ = H(q) q̈ + C(q, q̇) q̇ + G(q) into ``tau`` (RNEA)."""
+    check_into("rnea", data, (arrays, q, qd, qdd, tau), 3)
     rnea_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body, q, qd, qdd, tau)
 
 
 def gravity_into(arrays: ModelArrays, data: Data, q, g) -> None:
     """G(q) into ``g`` (RNEA with q̇ = q̈ = 0)."""
+    check_into("gravity", data, (arrays, q, g), 1)
     rnea_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body, q,
                 data.zero, data.zero, g)
 
 
 def bias_into(arrays: ModelArrays, data: Data, q, qd, b) -> None:
     """C(q, q̇) q̇ + G(q) into ``b`` (RNEA with q̈ = 0)."""
+    check_into("bias", data, (arrays, q, qd, b), 2)
     rnea_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body, q, qd,
                 data.zero, b)
 
 
 def mass_matrix_into(arrays: ModelArrays, data: Data, q, H) -> None:
     """H(q) into the (n, n) array ``H`` (CRBA)."""
+    check_into("mass_matrix", data, (arrays, q, H), 1, 1)
     crba_kernel(arrays.joint, arrays.geom, arrays.params, data.X, data.body, data.Ic, q, H)
 
 
 def forward_dynamics_into(arrays: ModelArrays, data: Data, q, qd, tau, armature, qdd) -> None:
     """q̈ = (H + diag(armature))⁻¹ (τ − C q̇ − G) into ``qdd`` (CRBA + Cholesky)."""
-    forward_dynamics_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body,
-                            data.Ic, data.H, q, qd, tau, armature, qdd)
+    check_into("forward_dynamics", data, (arrays, q, qd, tau, armature, qdd), 4)
+    try:
+        forward_dynamics_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body,
+                                data.Ic, data.H, q, qd, tau, armature, qdd)
+    except ZeroDivisionError:  # a zero pivot: no inertia and no armature on some joint
+        raise ValueError(_SINGULAR) from None
 
 
 def coriolis_matrix_into(arrays: ModelArrays, data: Data, q, qd, kind: int, C) -> None:
     """C(q, q̇) into the (n, n) array ``C``; ``kind`` is CHRISTOFFEL or CSTAR."""
+    if kind != CHRISTOFFEL and kind != CSTAR:
+        raise ValueError(f"kind: expected CHRISTOFFEL ({CHRISTOFFEL}) or CSTAR ({CSTAR}), got {kind!r}")
+    check_into("coriolis_matrix", data, (arrays, q, qd, C), 2, 1)
     coriolis_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body, data.Ic, data.I6,
                     data.B6, data.M6, q, qd, data.zero, kind, C)
 
 
 # --- convenience API ------------------------------------------------------------------------
 
-def _vec(x, n: int) -> np.ndarray:
-    x = np.ascontiguousarray(x, dtype=float)
-    if x.shape != (n,):
-        raise ValueError(f"expected a vector of {n} joint values, got shape {x.shape}")
-    return x
-
-
 _PACKED: "weakref.WeakKeyDictionary[Model, ModelArrays]" = weakref.WeakKeyDictionary()
 
 
 def _setup(model: Model, *vectors):
-    """Packed arrays (cached per Model: it is immutable), a fresh workspace, checked vectors."""
+    """Packed arrays (cached per Model: it is immutable), a fresh workspace, checked vectors:
+    the convenience functions call the kernels directly, everything they pass is checked or theirs."""
     arrays = _PACKED.get(model)
     if arrays is None:
         arrays = _PACKED[model] = model_arrays(model)
-    return (arrays, Data(model), *(_vec(v, model.nq) for v in vectors))
+    names = ("q", "qd", "qdd" if len(vectors) == 3 else "tau")
+    return (arrays, Data(model), *(vector(v, model.nq, name) for v, name in zip(vectors, names)))
 
 
 def rnea(model: Model, q, qd, qdd) -> np.ndarray:
     """Inverse dynamics τ = H q̈ + C q̇ + G (Featherstone Table 5.1)."""
     arrays, data, q, qd, qdd = _setup(model, q, qd, qdd)
     tau = np.zeros(model.nq)
-    rnea_into(arrays, data, q, qd, qdd, tau)
+    rnea_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body, q, qd, qdd, tau)
     return tau
 
 
@@ -126,7 +137,8 @@ def gravity(model: Model, q) -> np.ndarray:
     """Generalised gravity G(q)."""
     arrays, data, q = _setup(model, q)
     g = np.zeros(model.nq)
-    gravity_into(arrays, data, q, g)
+    rnea_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body, q, data.zero,
+                data.zero, g)
     return g
 
 
@@ -134,7 +146,7 @@ def mass_matrix(model: Model, q) -> np.ndarray:
     """Joint-space mass matrix H(q) (CRBA, Featherstone Table 6.2)."""
     arrays, data, q = _setup(model, q)
     H = np.zeros((model.nq, model.nq))
-    mass_matrix_into(arrays, data, q, H)
+    crba_kernel(arrays.joint, arrays.geom, arrays.params, data.X, data.body, data.Ic, q, H)
     return H
 
 
@@ -152,7 +164,8 @@ def coriolis_matrix(model: Model, q, qd, kind: str = "christoffel") -> np.ndarra
         raise ValueError(f"kind must be one of {sorted(_KINDS)}, got {kind!r}")
     arrays, data, q, qd = _setup(model, q, qd)
     C = np.zeros((model.nq, model.nq))
-    coriolis_matrix_into(arrays, data, q, qd, _KINDS[kind], C)
+    coriolis_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body, data.Ic, data.I6,
+                    data.B6, data.M6, q, qd, data.zero, _KINDS[kind], C)
     return C
 
 
@@ -166,9 +179,18 @@ def mass_matrix_dot(model: Model, q, qd) -> np.ndarray:
 
 
 def forward_dynamics(model: Model, q, qd, tau, armature=None) -> np.ndarray:
-    """q̈ from (H + diag(armature)) q̈ = τ − C q̇ − G; ``armature`` defaults to none (zeros)."""
+    """q̈ from (H + diag(armature)) q̈ = τ − C q̇ − G; ``armature`` (≥ 0) defaults to none (zeros).
+    ValueError where H + diag(armature) is not positive definite (non-physical parameters)."""
     arrays, data, q, qd, tau = _setup(model, q, qd, tau)
-    armature = np.zeros(model.nq) if armature is None else _vec(armature, model.nq)
+    armature = np.zeros(model.nq) if armature is None else vector(armature, model.nq, "armature")
+    if np.any(armature < 0):
+        raise ValueError(f"armature: expected values ≥ 0, got {armature}")
     qdd = np.zeros(model.nq)
-    forward_dynamics_into(arrays, data, q, qd, tau, armature, qdd)
+    try:
+        forward_dynamics_kernel(arrays.joint, arrays.geom, arrays.params, arrays.gravity, data.X, data.body,
+                                data.Ic, data.H, q, qd, tau, armature, qdd)
+    except ZeroDivisionError:
+        raise ValueError(f"{model.name}: {_SINGULAR}") from None
+    if not np.all(np.isfinite(qdd)):  # the Cholesky factorisation met a negative pivot
+        raise ValueError(f"{model.name}: {_SINGULAR}")
     return qdd

@@ -33,6 +33,7 @@ from enum import Enum
 import numpy as np
 
 from rtctl.errors import KinematicsError
+from rtctl.model import checks
 from rtctl.model.robot import REVOLUTE, Model
 from rtctl.model.rotations import rot_x, rot_z
 
@@ -153,7 +154,7 @@ def configuration(model: Model, q) -> ArmConfig:
     """The arm/elbow/wrist branch that joint angles ``q`` of a PUMA-type arm are on."""
     _require(model)
     dh = model.dh
-    theta = np.asarray(q, dtype=float) + dh.theta0
+    theta = checks.vector(q, model.nq, "q") + dh.theta0
     T = _base(model)
     for i in range(4):
         T = T @ _dh_frame(dh.alpha[i], dh.a[i], dh.d[i], theta[i])

@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from rtctl.errors import KinematicsError
-from rtctl.model import ik_puma
+from rtctl.model import checks, ik_puma
 from rtctl.model.ik_puma import Arm, ArmConfig, Elbow, IKSolution, Wrist, configuration
 from rtctl.model.oat import from_oat, to_oat
 from rtctl.model.robot import PRISMATIC, Model
@@ -82,11 +82,12 @@ def _jacobian_kernel(joint_types, on_path, axis, R, p, tool_point, J):
 
 
 def _body_frames(model: Model, q) -> tuple[np.ndarray, np.ndarray]:
-    """Orientations (n, 3, 3) and origins (n, 3) of every body in base coordinates."""
+    """Orientations (n, 3, 3) and origins (n, 3) of every body in base coordinates; ``q`` is
+    checked here, before the kernel reads n values from it."""
     n = model.nq
     R, p = np.empty((n, 3, 3)), np.empty((n, 3))
     _body_frames_kernel(model.joint_types, model.parent, model.axis, model.R_tree, model.p_tree,
-                        np.asarray(q, dtype=float), R, p)
+                        checks.vector(q, n, "q"), R, p)
     return R, p
 
 
@@ -135,7 +136,7 @@ def jacobian(model: Model, q) -> np.ndarray:
 
 def tool_twist(model: Model, q, qd) -> np.ndarray:
     """Forward differential kinematics: the tool twist [v; ω] = J(q) q̇ (eq. 25)."""
-    return jacobian(model, q) @ np.asarray(qd, dtype=float)
+    return jacobian(model, q) @ checks.vector(qd, model.nq, "qd")
 
 
 @dataclass(frozen=True)
@@ -166,7 +167,9 @@ def joint_rates(model: Model, q, twist, damping: float = 0.05, threshold: float 
     rad/rad (angular rows); the defaults suit arms about a metre long.
     """
     J = jacobian(model, q)
-    twist = np.asarray(twist, dtype=float)
+    twist = checks.vector(twist, 6, "twist", "components [v; ω]")
+    damping = checks.number(damping, "damping", positive=True)
+    threshold = checks.number(threshold, "threshold", positive=True)
     U, S, Vt = np.linalg.svd(J, full_matrices=False)
     sigma_min = float(S[-1])
     singular = sigma_min < threshold
@@ -192,7 +195,9 @@ def ik_solutions(model: Model, pose, q_seed=None, within_limits: bool = False):
     solutions that cannot be are dropped. Raises KinematicsError for other arms or when the
     pose is out of reach.
     """
-    solutions = ik_puma.solutions(model, np.asarray(pose, dtype=float), q_seed)
+    pose = checks.matrix(pose, (4, 4), "pose")
+    q_seed = None if q_seed is None else checks.vector(q_seed, model.nq, "q_seed")
+    solutions = ik_puma.solutions(model, pose, q_seed)
     if within_limits:
         solutions = ik_puma.within_limits(model, solutions, q_seed)
     return solutions
@@ -212,7 +217,8 @@ def ik(model: Model, pose, q_seed=None, config=None, *, method: str = "auto",
     """
     from rtctl.model import ik_numeric  # it builds on fk and jacobian above
 
-    pose = np.asarray(pose, dtype=float)
+    pose = checks.matrix(pose, (4, 4), "pose")
+    q_seed = None if q_seed is None else checks.vector(q_seed, model.nq, "q_seed")
     if method not in ("auto", "closed_form", "numeric"):
         raise ValueError(f"method must be 'auto', 'closed_form' or 'numeric', not {method!r}")
     closed = method == "closed_form" or (method == "auto" and ik_puma.is_puma_type(model))

@@ -27,6 +27,7 @@ import math
 
 import numpy as np
 
+from rtctl.model import checks
 from rtctl.model.rotations import rot_x, rot_y, rot_z
 
 R_REFERENCE = rot_x(np.pi / 2)
@@ -45,12 +46,14 @@ def _wrap(angle: float) -> float:
 
 def from_oat(o: float, a: float, t: float) -> np.ndarray:
     """R = R_R · Rot(y, O) · Rot(x, A) · Rot(z, T)  (eqs. 9, 11)."""
+    o, a, t = (checks.number(x, name) for x, name in ((o, "o"), (a, "a"), (t, "t")))
     return R_REFERENCE @ rot_y(o) @ rot_x(a) @ rot_z(t)
 
 
 def to_oat(R) -> tuple[float, float, float]:
     """(O, A, T) of a rotation matrix, with A in [−π/2, π/2], T = 0 where |A| = 90°."""
-    M = R_REFERENCE.T @ np.asarray(R, dtype=float)[:3, :3]
+    R = checks.matrix(R, (4, 4) if np.shape(R) == (4, 4) else (3, 3), "R (a rotation, or a 4×4 pose)")
+    M = R_REFERENCE.T @ R[:3, :3]
     if math.hypot(M[1, 0], M[1, 1]) < SINGULAR_TOLERANCE:  # |A| = 90°: M = Rot(y, O) Rot(x, ±90°)
         return _wrap(math.atan2(-M[2, 0], M[0, 0])), math.copysign(math.pi / 2, -M[1, 2]), 0.0
     t = math.atan2(M[1, 0], M[1, 1])

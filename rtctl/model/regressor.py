@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rtctl.model import checks
 from rtctl.model.robot import Model
 from rtctl.model.spatial import crf, crm, inertia_regressor, jcalc, plucker
 
@@ -42,7 +43,7 @@ def slotine_li_regressor(model: Model, q, qd, qdr, qddr, kind: str = "cstar") ->
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {KINDS}, got {kind!r}")
     n = model.nq
-    q, qd, qdr, qddr = (np.asarray(x, dtype=float).reshape(n) for x in (q, qd, qdr, qddr))
+    q, qd, qdr, qddr = (checks.vector(x, n, name) for x, name in ((q, "q"), (qd, "qd"), (qdr, "qdr"), (qddr, "qddr")))
     X, S = [], []
     v, u, w = np.zeros((n, 6)), np.zeros((n, 6)), np.zeros((n, 6))
     a0 = np.concatenate([np.zeros(3), -model.gravity])

@@ -29,6 +29,7 @@ from rtctl.errors import ModelError
 
 REVOLUTE = 0
 PRISMATIC = 1
+MAX_JOINTS = 64  # the robot size rtctl supports: robot files and run configurations refuse more
 
 
 @dataclass(frozen=True)
@@ -92,6 +93,9 @@ class Model:
             object.__setattr__(self, name, default.copy() if value is None else np.asarray(value, float))
         if np.any(self.parent >= np.arange(n)):
             raise ModelError(f"{self.name}: parents must precede their children")
+        for name in ("axis", "R_tree", "p_tree", "params", "gravity", "flange", "tool"):
+            if not np.all(np.isfinite(getattr(self, name))):
+                raise ModelError(f"{self.name}: {name} has non-finite values (a number too large?)")
         for name in ("joint_types", "parent", "axis", "R_tree", "p_tree", "params", "gravity",
                      "q_min", "q_max", "v_max", "tau_max", "flange", "tool"):
             getattr(self, name).setflags(write=False)

@@ -31,11 +31,12 @@ import numpy as np
 
 from rtctl.errors import ModelError
 from rtctl.model.dh import inertial_params
-from rtctl.model.robot import PRISMATIC, REVOLUTE, Model
+from rtctl.model.robot import MAX_JOINTS, PRISMATIC, REVOLUTE, Model
 from rtctl.model.rotations import homogeneous, matrix_rpy, rot_axis, rpy_matrix, skew, trans
 
 _MOVING = {"revolute": REVOLUTE, "continuous": REVOLUTE, "prismatic": PRISMATIC}
 _UNLIMITED = sys.float_info.max
+_LARGEST = 1e6  # any other number's magnitude (m, rad, kg, kg·m²): past it products overflow
 
 
 @dataclass
@@ -53,15 +54,17 @@ def load_urdf(path, *, lock: dict[str, float] | None = None, flange_link: str | 
     """A Model from a URDF file (see the module docstring for the rules)."""
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_bytes()  # the XML declares its encoding
     except OSError as e:
-        raise ModelError(f"{path}: cannot read URDF ({e})") from None
+        raise ModelError(f"{path}: cannot read URDF ({e.strerror or e})") from None
     return parse_urdf(text, lock=lock, flange_link=flange_link, source=str(path))
 
 
-def parse_urdf(text: str, *, lock: dict[str, float] | None = None, flange_link: str | None = None,
+def parse_urdf(text: str | bytes, *, lock: dict[str, float] | None = None, flange_link: str | None = None,
                source: str = "<urdf>") -> Model:
-    """A Model from URDF text."""
+    """A Model from URDF text. Refused with ModelError: malformed XML or numbers, missing or
+    repeated names, a joint loop, links not connected to the root, more than MAX_JOINTS
+    moving joints."""
     try:
         root = ET.fromstring(text)
     except ET.ParseError as e:
@@ -69,20 +72,37 @@ def parse_urdf(text: str, *, lock: dict[str, float] | None = None, flange_link: 
     if root.tag != "robot":
         raise ModelError(f"{source}: the root element is <{root.tag}>, expected <robot>")
     lock = dict(lock or {})
-    links = {link.get("name"): _link_params(link, source) for link in root.findall("link")}
+    links = {}
+    for link in root.findall("link"):
+        name = _name(link, source)
+        if name in links:
+            raise ModelError(f"{source}: two links are named {name!r}")
+        links[name] = _link_params(link, source)
     joints = [_parse_joint(j, source, lock) for j in root.findall("joint")]
-    unknown = set(lock) - {j.name for j in joints}
+    names = [j.name for j in joints]
+    if len(set(names)) != len(names):
+        raise ModelError(f"{source}: two joints are named {next(x for x in names if names.count(x) > 1)!r}")
+    moving = sum(j.type in _MOVING for j in joints)
+    if moving > MAX_JOINTS:
+        raise ModelError(f"{source}: {moving} moving joints; rtctl supports robots of at most {MAX_JOINTS}")
+    unknown = set(lock) - set(names)
     if unknown:
         raise ModelError(f"{source}: lock names unknown joints {sorted(unknown)}")
     children: dict[str, list[_Joint]] = {name: [] for name in links}
+    parent_joint: dict[str, str] = {}
     for j in joints:
         for end in (j.parent, j.child):
             if end not in links:
                 raise ModelError(f"{source}: joint {j.name!r} refers to unknown link {end!r}")
+        if j.child in parent_joint:  # a second way into a link: a loop (or a graph, not a tree)
+            raise ModelError(f"{source}: link {j.child!r} is the child of joints {parent_joint[j.child]!r} and "
+                             f"{j.name!r}; a robot is a tree of links (no loops)")
+        parent_joint[j.child] = j.name
         children[j.parent].append(j)
-    roots = set(links) - {j.child for j in joints}
+    roots = set(links) - set(parent_joint)
     if len(roots) != 1:
-        raise ModelError(f"{source}: expected one root link, found {sorted(roots)}")
+        raise ModelError(f"{source}: expected one root link, found {sorted(roots)} "
+                         f"{'(every link is a child: the joints form a loop)' if not roots else ''}".rstrip())
 
     # Depth-first walk: each link gets (body index, placement of the link in that body).
     body_of, placement = {}, {}
@@ -105,6 +125,10 @@ def parse_urdf(text: str, *, lock: dict[str, float] | None = None, flange_link: 
                 stack.append((j.child, len(bodies) - 1, np.eye(4)))
             else:
                 stack.append((j.child, body, T @ j.origin))
+    unreachable = set(links) - set(body_of)
+    if unreachable:  # one parent each and one root, yet not reached: a loop hanging apart
+        raise ModelError(f"{source}: links {sorted(unreachable)} are not connected to the root link "
+                         "(their joints form a loop)")
     if not bodies:
         raise ModelError(f"{source}: no revolute, continuous or prismatic joint")
     if parents != list(range(-1, len(bodies) - 1)):
@@ -144,14 +168,39 @@ def _end_frames(children, placement, body_of, link, last, flange_link, source):
     return flange, np.linalg.solve(flange, tool)
 
 
+def _name(element, source) -> str:
+    name = element.get("name")
+    if not name:
+        raise ModelError(f"{source}: a <{element.tag}> without a name")
+    return name
+
+
 def _floats(element, attr, count, default):
     text = element.get(attr) if element is not None else None
     if text is None:
         return np.array(default, dtype=float)
-    values = np.array([float(x) for x in text.split()])
-    if values.shape != (count,):
-        raise ModelError(f"<{element.tag} {attr}={text!r}>: expected {count} numbers")
+    try:
+        values = np.array([float(x) for x in text.split()])
+    except ValueError:
+        values = np.array([np.nan])
+    if values.shape != (count,) or not np.all(np.abs(values) <= _LARGEST):
+        raise ModelError(f"<{element.tag} {attr}={text!r}>: expected {count} numbers of magnitude ≤ {_LARGEST:g}")
     return values
+
+
+def _float(element, attr, default, *, lo=-np.inf, unlimited=False) -> float:
+    """A number attribute: finite and ≥ ``lo`` (±inf too where ``unlimited``: a limit)."""
+    text = element.get(attr)
+    if text is None:
+        return default
+    try:
+        value = float(text)
+    except ValueError:
+        value = np.nan
+    if np.isnan(value) or (abs(value) > _LARGEST and not unlimited) or value < lo:
+        raise ModelError(f"<{element.tag} {attr}={text!r}>: expected a number"
+                         f"{'' if unlimited else f' of magnitude ≤ {_LARGEST:g}'}{f' ≥ {lo:g}' if lo > -np.inf else ''}")
+    return value
 
 
 def _origin(element) -> np.ndarray:
@@ -167,8 +216,8 @@ def _link_params(link, source) -> np.ndarray:
     mass_el, inertia_el = inertial.find("mass"), inertial.find("inertia")
     if mass_el is None or inertia_el is None:
         raise ModelError(f"{source}: link {link.get('name')!r}: <inertial> needs <mass> and <inertia>")
-    m = float(mass_el.get("value", "0"))
-    c = {k: float(inertia_el.get(k, "0")) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+    m = _float(mass_el, "value", 0.0, lo=0.0)
+    c = {k: _float(inertia_el, k, 0.0) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
     Ic = np.array([[c["ixx"], c["ixy"], c["ixz"]], [c["ixy"], c["iyy"], c["iyz"]], [c["ixz"], c["iyz"], c["izz"]]])
     T = _origin(inertial)
     return inertial_params(m, T[:3, 3], T[:3, :3] @ Ic @ T[:3, :3].T)
@@ -189,10 +238,10 @@ def _moved(p, T) -> np.ndarray:
 
 
 def _parse_joint(j, source, lock) -> _Joint:
-    name, jtype = j.get("name"), j.get("type")
+    name, jtype = _name(j, source), j.get("type")
     parent, child = j.find("parent"), j.find("child")
-    if parent is None or child is None:
-        raise ModelError(f"{source}: joint {name!r} needs <parent> and <child>")
+    if parent is None or child is None or not parent.get("link") or not child.get("link"):
+        raise ModelError(f"{source}: joint {name!r} needs <parent link=...> and <child link=...>")
     if jtype not in _MOVING and jtype != "fixed":
         raise ModelError(f"{source}: joint {name!r} has type {jtype!r}; supported: revolute, continuous, "
                          "prismatic, fixed")
@@ -206,6 +255,8 @@ def _parse_joint(j, source, lock) -> _Joint:
         if jtype == "fixed":
             raise ModelError(f"{source}: cannot lock fixed joint {name!r}")
         value = float(lock[name])
+        if not np.isfinite(value):
+            raise ModelError(f"{source}: lock {name!r} at a non-finite position {value}")
         motion = homogeneous(rot_axis(axis, value)) if _MOVING[jtype] == REVOLUTE else trans(*(axis * value))
         origin, jtype = origin @ motion, "fixed"
     elif j.find("mimic") is not None:
@@ -213,13 +264,16 @@ def _parse_joint(j, source, lock) -> _Joint:
     limit = j.find("limit")
     lo, hi = (-np.inf, np.inf) if jtype == "continuous" else (_limit(limit, "lower", -np.inf), _limit(limit, "upper", np.inf))
     limits = (lo, hi, _limit(limit, "velocity", np.inf), _limit(limit, "effort", np.inf))
+    if not lo < hi or not (limits[2] > 0 and limits[3] > 0):
+        raise ModelError(f"{source}: joint {name!r}: limits need lower < upper and velocity, effort > 0, "
+                         f"got {limits}")
     return _Joint(name, jtype, parent.get("link"), child.get("link"), origin, axis, limits)
 
 
 def _limit(limit, attr, default) -> float:
-    if limit is None or limit.get(attr) is None:
+    if limit is None:
         return default
-    value = float(limit.get(attr))
+    value = _float(limit, attr, default, unlimited=True)
     return np.copysign(np.inf, value) if abs(value) >= _UNLIMITED else value
 
 

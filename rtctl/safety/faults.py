@@ -63,6 +63,11 @@ class Guard(Protocol):
     tick the controllers are in charge, after the command is bounded, before it is written."""
 
     reason: str
+    event_due: bool  # optional: True on the tick a violation episode starts; the stage then emits
+    #                  a ``guard`` event with the fields of ``event()``
 
     def check(self, t: float, state: JointState, command: JointCommand) -> int:
         """Return a :class:`GuardVerdict`; may modify ``command`` in place; must not allocate."""
+
+    def event(self) -> dict:
+        """The fields of the ``guard`` event (called only when ``event_due``)."""

@@ -149,6 +149,8 @@ class SafetyStage:
         except Exception as e:
             self._latch(FaultKind.GUARD, -1, math.nan, f"guard raised {type(e).__name__}: {e}")
             return
+        if g != GuardVerdict.PASS and getattr(self.guard, "event_due", False):
+            self._event("guard", "warning", **self.guard.event())  # an episode starts: which zone, what it did
         if g == GuardVerdict.STOP:
             self._latch(FaultKind.GUARD, -1, math.nan, getattr(self.guard, "reason", "") or "guard stop")
         elif g == GuardVerdict.MODIFIED:

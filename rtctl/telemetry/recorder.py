@@ -28,8 +28,10 @@ every committed row from shared memory; the footer then says ``clean: False``.
 """
 from __future__ import annotations
 
+import fcntl
 import json
 import os
+import stat
 import signal
 import struct
 import subprocess
@@ -39,12 +41,38 @@ import time
 import msgpack
 import numpy as np
 
-from rtctl.errors import TelemetryError
-from rtctl.telemetry.ring import DROPPED, RELEASED, STORED, Ring
+from rtctl.errors import ResourceBusyError, TelemetryError
+from rtctl.telemetry.ring import DROPPED, FAILED, RELEASED, STORED, Ring
 from rtctl.telemetry.schema import FORMAT, VERSION, normalise_schema, row_dtype, schema_to_wire
 
 _WAKE = b"F"
 _WAIT_POLL_S = 200e-6
+
+
+def open_exclusive(path: str) -> int:
+    """Open ``path`` for writing, lock it (``flock``, advisory, held by the writer process for
+    the run) and only then truncate it: a second run given the same file gives up with
+    :class:`ResourceBusyError` before it has changed a byte of the first one's."""
+    try:  # O_NONBLOCK: a FIFO without a reader fails (ENXIO) instead of blocking the start-up
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_NONBLOCK | os.O_CLOEXEC, 0o644)
+    except OSError as exc:
+        raise TelemetryError(f"cannot create telemetry file {path}: {exc.strerror}") from exc
+    try:
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISREG(mode):
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise ResourceBusyError(f"telemetry file {path} is being written by another running rtctl "
+                                        "(it holds the file's lock); choose another --telemetry path") from None
+            os.ftruncate(fd, 0)
+        elif not stat.S_ISCHR(mode):  # a device (/dev/null) is written as it is
+            raise TelemetryError(f"telemetry file {path} exists and is neither a regular file nor a device")
+        os.set_blocking(fd, True)
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
 
 
 class Recorder:
@@ -80,10 +108,7 @@ class Recorder:
             header_bytes = msgpack.packb(header)
         except (TypeError, ValueError) as exc:
             raise TelemetryError(f"telemetry metadata is not msgpack-serialisable: {exc}") from exc
-        try:
-            file_fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
-        except OSError as exc:
-            raise TelemetryError(f"cannot create telemetry file {self.path}: {exc.strerror}") from exc
+        file_fd = open_exclusive(self.path)
         try:
             if os.write(file_fd, header_bytes) != len(header_bytes):
                 raise OSError("short write")
@@ -197,6 +222,13 @@ class Recorder:
     def writer_alive(self) -> bool:
         return not self._closed and self._proc.poll() is None
 
+    @property
+    def failure(self) -> str | None:
+        """Why the writer can no longer write (None while it can): one shared-memory read,
+        cheap enough to ask every tick."""
+        code = self._ctl[FAILED] if self._ctl is not None else 0
+        return f"cannot write telemetry file {self.path}: {os.strerror(code)}" if code else None
+
     def close(self, summary=None, timeout: float = 30.0) -> None:
         """Write the partial block, the footer (with ``summary``) and fsync; safe to call twice."""
         if self._closed:
@@ -221,11 +253,12 @@ class Recorder:
             self._proc.kill()
             self._proc.wait()
             code = None
+        failure = self.failure
         self._ctl = self._ring_bytes = None
         self._ring.close()
         if code != 0:
-            raise TelemetryError(f"telemetry writer for {self.path} failed "
-                                 f"({'timed out' if code is None else f'exit status {code}'}); "
+            why = failure or f"telemetry writer for {self.path} failed"
+            raise TelemetryError(f"{why} ({'timed out' if code is None else f'exit status {code}'}); "
                                  f"rows stored: {self._stored}")
 
     def __enter__(self):

@@ -9,6 +9,8 @@ the row dtype. Counters, each written by one side only:
 * ``DROPPED`` (loop): rows the loop could not store because every block was still waiting
   for the writer (real-time mode never waits; see :class:`~rtctl.telemetry.Recorder`).
 * ``RELEASED`` (writer): full blocks written to the file; their memory may be reused.
+* ``FAILED`` (writer): 0 while it writes; the errno of the write that failed (ENOSPC, EIO …)
+  once it cannot write any more, so the loop learns of it within a tick.
 
 One monotonic counter per side (rather than "block full" flags) means a loop process that
 dies between any two statements leaves a consistent state: the writer can still save every
@@ -22,7 +24,7 @@ import tempfile
 
 import numpy as np
 
-STORED, DROPPED, RELEASED = 0, 1, 2
+STORED, DROPPED, RELEASED, FAILED = 0, 1, 2, 3
 CTL_BYTES = 64
 
 

@@ -10,13 +10,16 @@ it closes. The writer
   group; the writer must outlive the loop's shutdown to save its last rows), drops any
   real-time scheduling inherited from the loop and lowers its priority;
 * on ``C`` or on end-of-file (the loop process died, even by SIGKILL) writes every stored
-  row, including the partial block, then the footer, fsyncs and exits.
+  row, including the partial block, then the footer, fsyncs and exits;
+* when a write fails (a full disk: ENOSPC) stores the errno in the ring's ``FAILED`` counter
+  at once and exits with status 3: the loop reports it and applies its policy.
 
 Each batch goes to the kernel with one ``write`` as soon as it is packed, so a crash of
 either process loses at most the rows of the batch being written.
 """
 from __future__ import annotations
 
+import errno
 import json
 import os
 import signal
@@ -26,8 +29,11 @@ import time
 
 import msgpack
 
-from rtctl.telemetry.ring import DROPPED, RELEASED, STORED, Ring
+from rtctl.telemetry.ring import DROPPED, FAILED, RELEASED, STORED, Ring
 from rtctl.telemetry.schema import row_dtype, schema_from_wire
+
+
+EXIT_WRITE_FAILED = 3
 
 
 def pack_batch(block, n: int) -> bytes:
@@ -110,7 +116,12 @@ def main(argv=None) -> int:
     _detach_from_loop()
     schema = schema_from_wire(config["schema"])
     ring = Ring(config["ring_fd"], row_dtype(schema), config["block_rows"], config["n_blocks"])
-    Writer(ring, config["file_fd"], config["pipe_fd"]).run()
+    try:
+        Writer(ring, config["file_fd"], config["pipe_fd"]).run()
+    except OSError as e:
+        ring.ctl[FAILED] = e.errno or errno.EIO
+        print(f"rtctl telemetry writer: {e}", file=sys.stderr)
+        return EXIT_WRITE_FAILED
     return 0
 
 

@@ -40,13 +40,16 @@ class MonotonicClock:
     SCHED_OTHER) plus the scheduling latency; the spin margin absorbs that at the price of
     burning up to ``spin_margin_ns`` of CPU per tick. The sleep itself is
     ``clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME)`` through ctypes (which releases the
-    GIL); a signal interrupts it with EINTR, the Python handler runs, and the sleep resumes.
+    GIL); a signal interrupts it with EINTR, the Python handler runs, and the sleep resumes —
+    unless ``interrupted()`` (optional) then returns True: the sleep ends early, so a stop
+    requested by a signal handler is acted on at once, however long the period.
     """
 
-    def __init__(self, spin_margin_ns: int = 100_000):
+    def __init__(self, spin_margin_ns: int = 100_000, interrupted=None):
         if spin_margin_ns < 0:
             raise ValueError("spin_margin_ns must be >= 0")
         self.spin_margin_ns = int(spin_margin_ns)
+        self.interrupted = interrupted
         self._nanosleep = _load_clock_nanosleep()
         self._ts = _Timespec()  # reused every tick: no per-tick allocation
         self._ts_ref = ctypes.byref(self._ts)
@@ -61,7 +64,10 @@ class MonotonicClock:
             else:
                 self._ts.tv_sec, self._ts.tv_nsec = divmod(wake_ns, 1_000_000_000)
                 while self._nanosleep(_CLOCK_MONOTONIC, _TIMER_ABSTIME, self._ts_ref, None) == errno.EINTR:
-                    pass  # a signal handler ran (between the calls); keep the same absolute deadline
+                    # a signal: its Python handler runs before the call below does
+                    if self.interrupted is not None and self.interrupted():
+                        return
+                    # otherwise keep the same absolute deadline
         while time.monotonic_ns() < deadline_ns:
             pass
 

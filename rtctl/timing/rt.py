@@ -26,6 +26,7 @@ CAP_IPC_LOCK = 14
 CAP_SYS_NICE = 23
 PR_SET_TIMERSLACK = 29
 PR_GET_TIMERSLACK = 30
+MAX_TIMER_SLACK_NS = 1_000_000  # 1 ms: the kernel may wake the loop this late; more is no real-time setting
 # mlockall flags: 1|2 on x86, arm, riscv…; 0x2000|0x4000 on powerpc, sparc, alpha
 _MCL = 0x6000 if platform.machine().startswith(("ppc", "sparc", "alpha")) else 3
 
@@ -54,7 +55,7 @@ class RtSettings:
     priority: int = 0  # SCHED_FIFO priority, 1..99
     cpus: tuple[int, ...] = ()  # CPU affinity
     mlockall: bool = False  # mlockall(MCL_CURRENT | MCL_FUTURE)
-    timer_slack_ns: int = 0  # prctl(PR_SET_TIMERSLACK), ≥ 1 ns (the kernel reads 0 as "default")
+    timer_slack_ns: int = 0  # prctl(PR_SET_TIMERSLACK), 1 ns … 1 ms (the kernel reads 0 as "default")
     gc_freeze: bool = False  # gc.freeze(); gc.disable()
 
 
@@ -151,8 +152,9 @@ def _timer_slack(ns: int) -> KnobReport:
     name = "timer_slack"
     if platform.system() != "Linux":
         return KnobReport(name, KnobStatus.UNSUPPORTED, "PR_SET_TIMERSLACK is Linux-only")
-    if ns < 1:
-        return KnobReport(name, KnobStatus.FAILED, f"{ns} ns is not a slack", "use 1 ns for the tightest wake-ups")
+    if not 1 <= ns <= MAX_TIMER_SLACK_NS:
+        return KnobReport(name, KnobStatus.FAILED, f"{ns} ns is not a slack for a control loop",
+                          f"use 1 ns for the tightest wake-ups (at most {MAX_TIMER_SLACK_NS} ns)")
     if _libc().prctl(PR_SET_TIMERSLACK, ctypes.c_ulong(ns), 0, 0, 0) != 0:
         return KnobReport(name, KnobStatus.FAILED, os.strerror(ctypes.get_errno()))
     return KnobReport(name, KnobStatus.APPLIED,

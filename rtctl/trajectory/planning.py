@@ -85,9 +85,10 @@ def through_waypoints(waypoints, limits: JointLimits, *, start=None, smooth: boo
     ``smooth=False`` stops at every waypoint (one min-jerk segment each, shortest duration);
     ``smooth=True`` passes through them (:mod:`~rtctl.trajectory.smooth`) and stops only at
     the ends, at repeated points and where ``dwell`` > 0. ``dwell``: seconds to wait at each
-    waypoint (a scalar or one per waypoint). ``durations``: one per motion segment — in stop
-    mode each entry is a duration or None (shortest), and one below the limits' minimum
-    raises; in smooth mode all of them or none.
+    waypoint (a scalar or one per waypoint). ``durations``: one per segment (segment k joins
+    point k to point k + 1) — in stop mode each entry is a duration or None (shortest), one
+    below the limits' minimum raises and one between a repeated point and itself is a wait;
+    in smooth mode all of them or none.
     """
     W = np.atleast_2d(np.asarray(waypoints, float))
     if W.shape[1] != limits.n or len(W) == 0:
@@ -120,6 +121,11 @@ def through_waypoints(waypoints, limits: JointLimits, *, start=None, smooth: boo
             T, C = _run(points[a:b + 1], limits, None if durations is None else durations[a:b], a)
             T_all.extend(T)
             C_all.extend(C)
+        elif a < n_seg and not moving[a] and durations is not None and durations[a]:
+            if not durations[a] > 0:
+                raise TrajectoryError(f"segment {a}: duration {durations[a]:.6g} s must be positive")
+            T_all.append(float(durations[a]))  # the same point twice, a time apart: wait there
+            C_all.append(constant(points[a]))
     if not T_all:
         return hold(points[-1], t0)
     return JointTrajectory.from_segments(t0, T_all, np.array(C_all))
@@ -147,19 +153,21 @@ def _run(points, limits, requested, first_segment):
 
 
 def _check(c, T, limits, segment):
+    """Refuse a segment (an index, or a label such as "the move to waypoint 0") that breaks the limits."""
+    segment = segment if isinstance(segment, str) else f"segment {segment}"
     if T <= 0:
-        raise TrajectoryError(f"segment {segment}: duration {T:.6g} s must be positive")
+        raise TrajectoryError(f"{segment}: duration {T:.6g} s must be positive")
     if fits(c, T, limits.v_max, limits.a_max, limits.q_min, limits.q_max):
         return
     e = extrema(c, T)
     detail = f"peak |q̇|/v_max {np.max(e[2] / limits.v_max):.4g}, |q̈|/a_max {np.max(e[3] / limits.a_max):.4g}"
     if limits.q_min is not None:
         detail += f", range [{', '.join(f'{x:.4g}' for x in e[0])}] .. [{', '.join(f'{x:.4g}' for x in e[1])}]"
-    raise TrajectoryError(f"segment {segment}: duration {T:.6g} s violates the limits ({detail})")
+    raise TrajectoryError(f"{segment}: duration {T:.6g} s violates the limits ({detail})")
 
 
 def retarget(t: float, q, qd, qdd, waypoints, limits: JointLimits, *, duration: float | None = None,
-             smooth: bool = False, dwell=0.0) -> JointTrajectory:
+             durations=None, smooth: bool = False, dwell=0.0) -> JointTrajectory:
     """Replace the running trajectory at time ``t`` (the control socket's ``move``): from the
     current reference state (``q``, ``qd``, ``qdd`` — position, velocity and acceleration stay
     continuous) to rest at the first waypoint, then on through the others as
@@ -169,13 +177,15 @@ def retarget(t: float, q, qd, qdd, waypoints, limits: JointLimits, *, duration: 
     from rest, else :func:`~rtctl.trajectory.quintic.shortest_duration`) or in the requested
     ``duration``. When no single quintic fits (a fast joint must stop while another barely
     moves), it brakes first — to :func:`~rtctl.trajectory.quintic.braking_target` — and then
-    moves from rest. Raises :class:`~rtctl.errors.TrajectoryError` when even braking cannot
-    stay within the limits, or when the requested duration does not.
+    moves from rest. ``durations`` (one per later segment, as :func:`through_waypoints`
+    takes them: segment k joins waypoint k to k + 1) time the rest of the way. Raises
+    :class:`~rtctl.errors.TrajectoryError` when even braking cannot stay within the limits, or
+    when a requested duration does not (the message names the segment and the limit).
     """
     q, qd, qdd = (np.asarray(x, float) for x in (q, qd, qdd))
     W = np.atleast_2d(np.asarray(waypoints, float))
     limits.check_position(q, "start")
-    rest = through_waypoints(W, limits, smooth=smooth, dwell=dwell)  # validates the waypoints
+    rest = through_waypoints(W, limits, smooth=smooth, dwell=dwell, durations=durations)  # validates the waypoints
     at_rest = not (np.any(qd) or np.any(qdd))
     T_all, C_all = ([], []) if rest.duration == 0.0 else (list(np.diff(rest.knots)), list(rest.coeffs))
     if duration is not None or at_rest:
@@ -197,7 +207,7 @@ def retarget(t: float, q, qd, qdd, waypoints, limits: JointLimits, *, duration: 
     T_first, C_first, start = [], [], (q, qd, qdd)
     for T, end in moves:
         c = coefficients(*start, end, 0.0, 0.0, T)
-        _check(c, T, limits, len(T_first))
+        _check(c, T, limits, "the move to waypoint 0" if end is W[0] else "braking")
         T_first.append(T)
         C_first.append(c)
         start = (end, 0.0, 0.0)

@@ -103,3 +103,56 @@ def test_exactly_the_limit_is_accepted_and_one_bit_per_second_less_capacity_is_n
     with pytest.raises(BusLoadError):
         busload.check_bus_load(over, "r.toml", "buses.a")
     assert "limit" in busload.format_budget([over]).splitlines()[1]
+
+
+def test_frame_lengths_and_the_data_byte_range():
+    # worst-case stuffed lengths (Davis et al. 2007): 0, 4, 6, 8 data bytes
+    assert [busload.frame_bits(n) for n in (0, 4, 6, 8)] == [55, 95, 115, 135]
+    for bad in (-1, 9):
+        with pytest.raises(ValueError):
+            busload.frame_bits(bad)
+    assert busload.bus_load("a", "mit8", 3, 1000, 1_000_000).bits_per_tick == 3 * (135 + 135)
+
+
+def test_the_ways_out_are_computed_not_rounded_early():
+    load = busload.bus_load("arm", "mit", 6, 1000, 1_000_000)
+    assert load.max_rate_hz() == pytest.approx(0.8e6 / 1500, rel=1e-12)  # 533.33 Hz, not 533
+    assert "1500 bits/tick = 1500 kbit/s on 1000 kbit/s: 150 %" in load.describe()
+    # CiA 402: 325 bits per drive and one 55-bit SYNC per bus; at 500 Hz (1600 bits of budget per
+    # tick) (1600 − 55) / 325 = 4.75 → 4 drives per bus
+    assert busload.bus_load("b", "cia402", 6, 500, 1_000_000).max_joints() == 4
+
+
+def test_when_not_even_one_joint_fits_no_split_is_offered():
+    load = busload.bus_load("slow", "mit", 2, 1000, 125_000)  # 500 bits/tick on 100 bits of budget
+    assert load.max_joints() == 0
+    with pytest.raises(BusLoadError) as err:
+        busload.check_bus_load(load, "r.toml", "buses.slow")
+    assert "split" not in str(err.value) and "≤ 200 Hz" in str(err.value)
+
+
+def test_a_split_is_offered_down_to_one_joint_per_bus():
+    # 250 bits per MIT joint; 1 Mbit at 3 kHz leaves 266 bits of budget per tick: one joint per bus
+    load = busload.bus_load("a", "mit", 2, 3000, 1_000_000)
+    with pytest.raises(BusLoadError) as err:
+        busload.check_bus_load(load, "r.toml", "buses.a")
+    assert "split the joints over 2 buses (≤ 1 per bus at 3000 Hz)" in str(err.value)
+
+
+@pytest.mark.parametrize("kw", [{"rate_hz": 0}, {"bitrate": 0}, {"joints": -1}])
+def test_impossible_buses_are_refused(kw):
+    args = {"joints": 3, "rate_hz": 1000, "bitrate": 1_000_000, **kw}
+    with pytest.raises(ValueError):
+        busload.bus_load("a", "mit", args["joints"], args["rate_hz"], args["bitrate"])
+
+
+def test_a_bus_without_joints_costs_only_its_own_frames():
+    assert busload.bus_load("a", "mit", 0, 1000, 1_000_000).bits_per_tick == 0
+    assert busload.bus_load("a", "cia402", 0, 1000, 1_000_000).bits_per_tick == 55  # the SYNC
+
+
+def test_budget_table_units():
+    (header, row) = busload.format_budget([busload.bus_load("b", "mit", 6, 1000, 1_000_000)]).splitlines()
+    assert header.split() == ["bus", "protocol", "joints", "rate", "Hz", "kbit/s", "µs/tick", "load"]
+    assert row.split()[:7] == ["b", "mit", "6", "1000", "1000", "1500", "150%"]
+    assert row.endswith("> 80 % limit")

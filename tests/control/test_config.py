@@ -81,7 +81,7 @@ def test_rtctl_run_tracks_and_records_estimates(tmp_path):
     config.write_text(text.replace("realtime_factor = 1.0", "realtime_factor = 0.0"))
     summary = tmp_path / "summary.json"
     proc = subprocess.run([sys.executable, "-m", "rtctl.cli", "run", str(config), "--duration", "4",
-                           "--summary", str(summary)], capture_output=True, text=True, timeout=120, cwd=ROOT)
+                           "--summary", str(summary)], capture_output=True, text=True, timeout=600, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr[-2000:]
     result = json.loads(summary.read_text())
     tracking = result["tracking_error_rad"]

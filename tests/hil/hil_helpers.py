@@ -35,8 +35,9 @@ class HilSim:
         ready, _, _ = select.select([self.proc.stdout], [], [], timeout)
         line = self.proc.stdout.readline() if ready else ""
         if not line:
-            self.kill()
-            raise AssertionError(f"hil-sim did not announce itself: {self.proc.stderr.read()}")
+            self.proc.kill()
+            _, err = self.proc.communicate()
+            raise AssertionError(f"hil-sim did not announce itself: {err}")
         self.info = json.loads(line)
 
     def env(self) -> dict:

@@ -285,6 +285,6 @@ def test_events_are_capped_and_the_rest_counted():
     r = Rig()
     r.stage.log_events = False
     for i in range(_MAX_EVENTS + 3):
-        r.stage._event("probe", i=i)
+        r.stage._event("probe", "info", i=i)
     assert len(r.stage.events) == _MAX_EVENTS == 1000 and r.stage.events_dropped == 3
     assert r.stage.events[-1]["i"] == _MAX_EVENTS - 1

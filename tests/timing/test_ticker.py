@@ -224,3 +224,17 @@ def test_ticker_due_follows_the_skips():
 def test_bad_arguments_are_refused(kw):
     with pytest.raises(ValueError):
         Ticker(P, clock=FakeClock(), **kw)
+
+
+def test_every_divisor_runs_on_the_first_tick():
+    ticker, clock = make()
+    ticker.wait()
+    assert all(ticker.due(d) for d in (1, 2, 3, 20))
+
+
+def test_nanosecond_phase_times_reach_the_percentiles():
+    ticker, clock = make()
+    for _ in range(10):
+        run_tick(ticker, clock, (10, 20, 30, 40, 50))
+    c = ticker.summary()["compute_us"]
+    assert [c[name]["p50"] for name in PHASES] == pytest.approx([0.01, 0.02, 0.03, 0.04, 0.05], rel=1 / 32)

@@ -1,0 +1,341 @@
+"""The framegrabber's wire, written once for both ends: registers and the shared frame buffer.
+
+The paper's interface keeps images in on-board RAM that the host can map as memory, and
+arbitrates so that host and grabber never use the same memory at once. Here that memory is
+one buffer (``multiprocessing.shared_memory`` across processes, a plain array in-process)
+laid out as (all integers little-endian int64)::
+
+    0      magic "RTCTLFG1", then LAYOUT: version, n_slots, slot_stride, data_bytes, clock, field_ns
+    128    REGISTERS (host → device): gen, density, x, y, width, height, scan, offset, gain,
+           levels, word_bits, shots, trigger                    — a sequence lock: gen odd while written
+    256    STATUS (device → host): state, applied_gen, error, fields, heartbeat_ns
+    384    WRITER (device only): published slot, written, slot_seq[n_slots]
+    640    READER (host only):  claim, hold, read, dropped, last_seq
+    4096   slot s at 4096 + s · slot_stride: header (seq, capture_ns, field, gen, nbytes,
+           then the 12 registers the frame was taken with), packed words from byte 256
+
+**Arbitration** (ownership handed over, never shared): the device writes a frame into a slot
+it has *reserved*, and publishes it when complete; the host *holds* the slot of the frame it
+is using. Each side writes only its own words. To reserve slot s the device marks it busy,
+then (after a full memory fence) checks that the host neither holds nor claims it; to take
+the newest frame the host claims its slot, then (after a fence) checks the slot still holds
+that frame. Whichever of the two comes second sees the other (Dekker's argument), so a frame
+is never read while it is written, and neither side ever waits: with ≥ 4 slots there is
+always a free one beside the published, the held and the claimed. A host slower than the
+device takes the newest frame and counts the ones it skipped: ``dropped = written − read``.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from numba import njit, types
+from numba.extending import intrinsic
+
+from rtctl.errors import ProtocolError
+from rtctl.hal.framegrabber import (FIELD_PERIOD_S, MEMORY_BYTES, SCANS, Frame, FrameGrabber, GrabberSettings,
+                                   LoopClock)
+from rtctl.vision.pixels import unpack
+
+MAGIC = b"RTCTLFG1"
+VERSION = 1
+HEADER_BYTES = 4096
+SLOT_HEADER_BYTES = 256
+MIN_SLOTS, MAX_SLOTS = 4, 16
+CLOCK_MONOTONIC, CLOCK_LOOP = 0, 1  # capture_ns: CLOCK_MONOTONIC, or the loop's time (lock-step)
+IDLE, RUNNING, DONE, FAULT = 0, 1, 2, 3  # device state
+FIELD_NAMES = ("frame", "odd", "even")
+FIELD_CODES = {name: code for code, name in enumerate(FIELD_NAMES)}
+BUSY = -1  # slot_seq while the device writes the slot; 0 = never written
+
+# word indices within each section
+L_VERSION, L_SLOTS, L_STRIDE, L_DATA, L_CLOCK, L_FIELD_NS = range(6)
+REG_NAMES = ("density", "x", "y", "width", "height", "scan", "offset", "gain", "levels", "word_bits", "shots", "trigger")
+R_GEN = 0
+S_STATE, S_APPLIED, S_ERROR, S_FIELDS, S_HEARTBEAT = range(5)
+W_PUBLISHED, W_WRITTEN, W_SEQ0 = 0, 1, 2
+H_CLAIM, H_HOLD, H_READ, H_DROPPED, H_LAST = range(5)
+F_SEQ, F_CAPTURE, F_FIELD, F_GEN, F_NBYTES, F_REGS = range(6)
+_OFFSETS = {"layout": 8, "regs": 128, "status": 256, "writer": 384, "reader": 640}
+_WORDS = {"layout": 15, "regs": 1 + len(REG_NAMES), "status": 16, "writer": 2 + MAX_SLOTS, "reader": 8}
+
+
+def buffer_bytes(n_slots: int = MIN_SLOTS) -> int:
+    return HEADER_BYTES + n_slots * (SLOT_HEADER_BYTES + MEMORY_BYTES)
+
+
+@intrinsic
+def _fence(typingctx):
+    """A full (sequentially consistent) memory fence: orders a store before a later load."""
+    def codegen(context, builder, signature, args):
+        builder.fence("seq_cst")
+        return context.get_dummy_value()
+    return types.void(), codegen
+
+
+@njit(cache=True)
+def _reserve(writer, reader, n_slots, start):
+    """Device: a slot to write (marked BUSY) that is neither published, held nor claimed; −1 if none."""
+    published = writer[W_PUBLISHED]
+    for k in range(2 * n_slots):
+        s = (start + k) % n_slots
+        if s == published:
+            continue
+        old = writer[W_SEQ0 + s]
+        writer[W_SEQ0 + s] = BUSY
+        _fence()
+        if reader[H_CLAIM] != s and reader[H_HOLD] != s:
+            return s
+        writer[W_SEQ0 + s] = old  # the host has it: leave it as it was
+    return -1
+
+
+@njit(cache=True)
+def _publish(writer, slot, seq):
+    _fence()  # the frame's bytes before its sequence number
+    writer[W_SEQ0 + slot] = seq
+    writer[W_PUBLISHED] = slot
+    writer[W_WRITTEN] = seq
+
+
+@njit(cache=True)
+def _claim(writer, reader):
+    """Host: hold the newest complete frame if it is newer than the last one → slot, else
+    −1 (nothing new) or −2 (lost a race with the device: try again)."""
+    p = writer[W_PUBLISHED]
+    if p < 0:
+        return -1
+    seq = writer[W_SEQ0 + p]
+    last = reader[H_LAST]
+    if seq <= last:
+        return -1
+    reader[H_CLAIM] = p
+    _fence()
+    if writer[W_SEQ0 + p] != seq:
+        reader[H_CLAIM] = -1
+        return -2
+    reader[H_HOLD] = p  # the previously held slot goes back to the device
+    reader[H_CLAIM] = -1
+    reader[H_READ] += 1
+    reader[H_DROPPED] += seq - last - 1
+    reader[H_LAST] = seq
+    return p
+
+
+@njit(cache=True)
+def _store(words, index, value):
+    words[index] = value
+    _fence()
+
+
+@njit(cache=True)
+def fence():
+    _fence()
+
+
+class GrabberMemory:
+    """Typed views of the layout over ``buffer`` (anything writable with the buffer protocol)."""
+
+    def __init__(self, buffer, *, create: bool = False, n_slots: int = MIN_SLOTS, clock: int = CLOCK_MONOTONIC):
+        self.buffer = buffer
+        raw = np.frombuffer(buffer, dtype=np.uint8)
+        if create:
+            if not MIN_SLOTS <= n_slots <= MAX_SLOTS or raw.size < buffer_bytes(n_slots):
+                raise ProtocolError(f"{n_slots} slots need {buffer_bytes(n_slots)} bytes and 4..16 slots; "
+                                    f"got {raw.size} bytes")
+            raw[:HEADER_BYTES] = 0
+            raw[:8] = np.frombuffer(MAGIC, dtype=np.uint8)
+        elif raw.size < HEADER_BYTES or raw[:8].tobytes() != MAGIC:
+            raise ProtocolError("not a framegrabber buffer (bad magic)")
+        for name, offset in _OFFSETS.items():
+            setattr(self, name, np.ndarray((_WORDS[name],), dtype="<i8", buffer=buffer, offset=offset))
+        if create:
+            self.layout[[L_VERSION, L_SLOTS, L_STRIDE, L_DATA, L_CLOCK, L_FIELD_NS]] = (
+                VERSION, n_slots, SLOT_HEADER_BYTES + MEMORY_BYTES, MEMORY_BYTES, clock, round(FIELD_PERIOD_S * 1e9))
+            self.writer[:] = 0
+            self.writer[W_PUBLISHED] = -1
+            self.reader[[H_CLAIM, H_HOLD]] = -1
+        elif self.layout[L_VERSION] != VERSION:
+            raise ProtocolError(f"framegrabber buffer version {self.layout[L_VERSION]}, this end speaks {VERSION}")
+        self.n_slots = int(self.layout[L_SLOTS])
+        stride = int(self.layout[L_STRIDE])
+        if not MIN_SLOTS <= self.n_slots <= MAX_SLOTS or raw.size < HEADER_BYTES + self.n_slots * stride:
+            raise ProtocolError(f"framegrabber buffer of {raw.size} bytes does not hold {self.n_slots} slots")
+        self.clock = int(self.layout[L_CLOCK])
+        self.slot_headers = [np.ndarray((F_REGS + len(REG_NAMES),), dtype="<i8", buffer=buffer,
+                                        offset=HEADER_BYTES + s * stride) for s in range(self.n_slots)]
+        self.slot_data = [raw[HEADER_BYTES + s * stride + SLOT_HEADER_BYTES: HEADER_BYTES + (s + 1) * stride]
+                          for s in range(self.n_slots)]
+
+    def words(self, slot: int, settings: GrabberSettings) -> np.ndarray:
+        """Zero-copy view of a slot's packed pixels, (rows, words_per_row)."""
+        dtype = np.dtype(f"<u{settings.word_bits // 8}")
+        return self.slot_data[slot][:settings.frame_bytes].view(dtype).reshape(settings.rows, settings.words_per_row)
+
+
+def encode(settings: GrabberSettings, trigger: int = 0) -> list[int]:
+    x, y, w, h = settings.window
+    return [settings.density, x, y, w, h, SCANS.index(settings.scan), settings.offset, settings.gain,
+            settings.levels, settings.word_bits, settings.shots, trigger]
+
+
+def decode(words) -> GrabberSettings:
+    """Registers → settings; :class:`rtctl.errors.SettingsError` for a combination the device cannot do."""
+    v = [int(x) for x in words[:len(REG_NAMES)]]
+    scan = SCANS[v[5]] if 0 <= v[5] < len(SCANS) else f"<scan code {v[5]}>"
+    return GrabberSettings(density=v[0], window=(v[1], v[2], v[3], v[4]), scan=scan, offset=v[6], gain=v[7],
+                           levels=v[8], word_bits=v[9], shots=v[10])
+
+
+class HostPort:
+    """The host's end: program the registers, hold the newest frame and describe it."""
+
+    def __init__(self, memory: GrabberMemory):
+        self.m = memory
+        self._trigger = 0
+        self._settings: dict[int, GrabberSettings] = {}  # register generation → settings (few)
+        self._frames: list[Frame | None] = [None] * memory.n_slots  # one per slot, reused
+        self._gens = [-1] * memory.n_slots  # the generation each slot's frame view was made for
+        self.clock = LoopClock()
+        self.start = int(memory.writer[W_WRITTEN])  # frames before we looked are not dropped
+        r = memory.reader
+        r[[H_CLAIM, H_HOLD]] = -1
+        r[[H_READ, H_DROPPED]] = 0
+        r[H_LAST] = self.start
+
+    def program(self, settings: GrabberSettings) -> None:
+        """Write the registers under their sequence lock; starts a burst in N-shot mode."""
+        regs, self._trigger = self.m.regs, self._trigger + 1
+        gen = int(regs[R_GEN]) + 1 | 1
+        _store(regs, R_GEN, gen)  # odd: being written
+        regs[1:] = encode(settings, self._trigger)
+        _store(regs, R_GEN, gen + 1)
+
+    def claim(self) -> int:
+        """Slot of a new newest frame now held, or −1 (never waits)."""
+        for _ in range(3):  # −2: the device reused the slot while we looked; its newer frame is there
+            slot = _claim(self.m.writer, self.m.reader)
+            if slot != -2:
+                return slot
+        return -1
+
+    def take(self, t: float, now_ns: int) -> Frame | None:
+        """The newest frame if it is new, now held (its words a zero-copy view), else None.
+        Its capture time is put on the loop's clock: the device's own (lock-step), or its
+        CLOCK_MONOTONIC stamp through :class:`~rtctl.hal.framegrabber.LoopClock` (``now_ns``:
+        CLOCK_MONOTONIC at this read of tick time ``t``)."""
+        slot = self.claim()
+        if slot < 0:
+            return None
+        h = self.m.slot_headers[slot]
+        gen = int(h[F_GEN])
+        settings = self._settings.get(gen)
+        if settings is None:
+            settings = self._settings[gen] = decode(h[F_REGS:])
+        capture_ns = int(h[F_CAPTURE])
+        capture = capture_ns * 1e-9 if self.m.clock == CLOCK_LOOP else self.clock.to_loop(t, now_ns, capture_ns)
+        frame = self._frames[slot]
+        if frame is None or self._gens[slot] != gen:
+            frame = self._frames[slot] = Frame(0, 0.0, "frame", settings, self.m.words(slot, settings), unpack)
+            self._gens[slot] = gen
+        frame.seq, frame.capture_time, frame.field = int(h[F_SEQ]), capture, FIELD_NAMES[int(h[F_FIELD])]
+        return frame
+
+    def release(self) -> None:
+        self.m.reader[H_HOLD] = -1
+
+    @property
+    def read(self) -> int:
+        """Frames taken since this end attached."""
+        return int(self.m.reader[H_READ])
+
+    @property
+    def dropped(self) -> int:
+        """Frames the device completed since this end attached that it never took."""
+        return int(self.m.reader[H_DROPPED])
+
+    @property
+    def written(self) -> int:
+        return int(self.m.writer[W_WRITTEN]) - self.start
+
+    def device_status(self) -> dict:
+        s = self.m.status
+        return {"state": ("idle", "running", "done", "fault")[int(s[S_STATE])], "applied_gen": int(s[S_APPLIED]),
+                "settings_errors": int(s[S_ERROR]), "fields": int(s[S_FIELDS]), "written": self.written}
+
+
+class HostFrameGrabber(FrameGrabber):
+    """A framegrabber device read through this protocol: subclasses open ``self.host`` (a
+    :class:`HostPort`) when configured."""
+
+    host: HostPort | None = None
+
+    def _poll(self, t: float) -> bool:
+        frame = self.host.take(t, time.monotonic_ns())
+        if frame is None:
+            return False
+        self._latest = frame
+        self.frames, self.dropped = self.host.read, self.host.dropped
+        return True
+
+    def _send(self, settings: GrabberSettings, t: float) -> None:
+        self.host.program(settings)
+
+
+class DevicePort:
+    """The device's end: read the registers, reserve a slot, publish a frame."""
+
+    def __init__(self, memory: GrabberMemory):
+        self.m = memory
+        self._next = 0
+        self.seq = 0
+        self.skipped = 0  # frames with no free slot (the host would have to hold three at once)
+
+    def registers(self) -> tuple[int, list[int]] | None:
+        """(generation, register words) if a consistent set is there (never waits)."""
+        regs = self.m.regs
+        gen = int(regs[R_GEN])
+        if gen == 0 or gen & 1:
+            return None
+        words = regs[1:].tolist()
+        fence()
+        return (gen, words) if int(regs[R_GEN]) == gen else None
+
+    def reserve(self) -> int:
+        slot = _reserve(self.m.writer, self.m.reader, self.m.n_slots, self._next)
+        if slot < 0:
+            self.skipped += 1
+        else:
+            self._next = (slot + 1) % self.m.n_slots
+        return slot
+
+    def abandon(self, slot: int) -> None:
+        """Give a reserved slot back unpublished (its image could not be completed)."""
+        self.m.writer[W_SEQ0 + slot] = 0
+
+    def publish(self, slot: int, capture_ns: int, field: str, gen: int, words: list[int], nbytes: int) -> int:
+        self.seq += 1
+        h = self.m.slot_headers[slot]
+        h[:F_REGS] = (self.seq, capture_ns, FIELD_CODES[field], gen, nbytes)
+        h[F_REGS:] = words
+        _publish(self.m.writer, slot, self.seq)
+        return self.seq
+
+    def set_status(self, state: int, applied_gen: int | None = None, error: int | None = None) -> None:
+        s = self.m.status
+        s[S_STATE] = state
+        if applied_gen is not None:
+            s[S_APPLIED] = applied_gen
+        if error is not None:
+            s[S_ERROR] = error
+
+
+def warm_up() -> None:
+    """Load the compiled arbitration kernels before the loop starts."""
+    m = GrabberMemory(np.zeros(buffer_bytes(), dtype=np.uint8), create=True)
+    dev, host = DevicePort(m), HostPort(m)
+    host.program(GrabberSettings())
+    gen, words = dev.registers()
+    slot = dev.reserve()
+    dev.publish(slot, 0, "odd", gen, words, 0)
+    host.take(0.0, 0)

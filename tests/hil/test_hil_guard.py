@@ -1,0 +1,37 @@
+"""HIL: the run-time guard over socketcand. `hil-sim` plays the PUMA 560 and its MIT drives in
+its own process; a test controller steps straight into the overhead conveyor. The guard stops
+it short of the zone, the event names the zone, the drives end out of motor mode."""
+import sys
+
+import numpy as np
+import pytest
+
+from hil_helpers import ROOT, variant
+
+sys.path.insert(0, str(ROOT / "tests" / "guard"))
+from guard_helpers import depths, guard_events, guard_section, rtctl_run, travel_after  # noqa: E402
+
+pytestmark = pytest.mark.hil
+
+TOLERANT = {"drive_timeout": 0.1, "stale_limit": 10, "stale_ticks": 10}  # see test_hil_tracking
+INTO_CONVEYOR = [0.0, 1.0472, -0.6981, 0.0, 0.0, 0.0]  # from q = 0: shoulder 60°, elbow −40°, inside the zone
+
+
+def test_a_step_into_a_zone_over_socketcand_is_stopped_short(tmp_path, hil_sim):
+    config = variant(tmp_path, "puma560_hil_socketcand.toml", **TOLERANT)
+    text = config.read_text().replace('type = "computed_torque"', 'type = "step_into"')
+    text = text.replace("kd = 40.0", f"kd = 40.0\ntarget = {INTO_CONVEYOR}\nat = 0.2", 1)
+    text = text[:text.index("[trajectory]")] + text[text.index("[safety]"):]  # it holds q = 0 until the step
+    config.write_text(text + guard_section("stop"))
+    sim = hil_sim(config, "--port", 0, "--drive-timeout-ms", 100)
+    code, summary, telemetry, err = rtctl_run(config, tmp_path, "--duration", 2.0, env=sim.env())
+    sim_exit = sim.stop()
+    assert code == 3, err[-3000:]
+    assert not any(d["enabled"] for d in sim_exit["drives"]), "a drive was left in motor mode"
+    (event,) = guard_events(summary)
+    assert event["zone"] == "overhead_conveyor" and event["action"] == "stop"
+    assert np.all(depths(config, telemetry["q"]) > 0), "the robot was inside the zone"
+    travelled, predicted = travel_after(telemetry, event)
+    print(f"HIL guard: at {np.round(event['qd'], 2)} rad/s stopped after {travelled:.3f} of {predicted:.3f} rad")
+    assert max(np.abs(event["qd"])) > 0.5
+    assert travelled <= predicted

@@ -1,0 +1,42 @@
+"""A camera simulator and the host end of its buffer, in this process, for the vision tests."""
+from __future__ import annotations
+
+import numpy as np
+
+from drivers.protocols.framegrabber import CLOCK_LOOP, GrabberMemory, HostPort, buffer_bytes
+from hil_sim.camera import CameraSim
+from hil_sim.render import Scene
+from rtctl.model import load_robot
+from rtctl.vision.camera import Camera
+from runtime_helpers import PUMA
+
+READY = np.radians([0, 45, -180, 0, 45, 0])
+CAMERA = Camera.looking_at((1.7, -1.2, 0.9), (0.35, 0.05, 0.0), 760.0)
+
+
+class Rig:
+    """The PUMA 560 (or ``model``) at ``q`` (a callable of time, or fixed) filmed in lock-step."""
+
+    def __init__(self, settings, q=READY, model=None, ticks_per_field: int = 20, scene: Scene | None = None):
+        self.model = model if model is not None else load_robot(PUMA)
+        self.memory = GrabberMemory(np.zeros(buffer_bytes(), dtype=np.uint8), create=True, clock=CLOCK_LOOP)
+        self.host = HostPort(self.memory)
+        self.host.program(settings)
+        self.t = 0.0
+        self.q = q if callable(q) else (lambda t: q)
+        self.period = 0.020 / ticks_per_field
+        self.camera = CameraSim(scene or Scene(CAMERA), self.model, self.memory, lambda: self.q(self.t),
+                                ticks_per_field=ticks_per_field)
+        self.tick = 0
+
+    def frames(self, seconds: float):
+        """(arrival time, frame copy) of every image taken while running ``seconds`` of ticks."""
+        out = []
+        for _ in range(round(seconds / self.period)):
+            self.t = self.tick * self.period
+            self.camera.step(round(self.t * 1e9))
+            frame = self.host.take(self.t, 0)
+            if frame is not None:
+                out.append((self.t, frame.copy()))
+            self.tick += 1
+        return out
