@@ -28,7 +28,7 @@ import numpy as np
 from rtctl.hal import JointGroup, Status
 from rtctl.hal.lifecycle import Lifecycle
 from rtctl.model import load_robot
-from rtctl.model.dynamics import forward_dynamics
+from rtctl.model.regressor import regressor_mass_matrix
 from hil_sim.plant import Plant
 
 
@@ -64,9 +64,10 @@ class SimPlantHub:
                       armature=sim.bool("armature", True), q0=q0,
                       integrator=sim.str("integrator", "euler", choices=("euler", "rk4")))
         try:  # a joint with no inertia and no armature cannot be simulated (its q̈ is undefined)
-            forward_dynamics(true_model, plant.q, plant.qd, plant.qd, plant.armature)
-        except ValueError as e:
-            raise sim.error("armature", f"a plant whose every joint has inertia or armature ({e})") from None
+            np.linalg.cholesky(regressor_mass_matrix(true_model, plant.q) + np.diag(plant.armature))
+        except np.linalg.LinAlgError:
+            raise sim.error("armature", "a plant whose every joint has inertia or armature (H(q) + diag(armature) "
+                                        "is not positive definite at the initial q)") from None
         hub = cls(plant, period)
         hub.encoder_counts = sim.int("encoder_counts", 0, min=0)
         hub.velocity_noise = sim.float("velocity_noise", 0.0, min=0.0)

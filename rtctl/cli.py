@@ -225,9 +225,16 @@ def main(argv=None) -> int:
 
 def _dispatch(args) -> int:
     if args.command == "run":
+        import structlog
+
+        from rtctl import logs  # light: the first line is out before the daemon's imports (numba …)
+
+        fmt = logs.resolve_format(args.log_format)
+        logs.configure(fmt, level=args.log_level)
+        structlog.get_logger("rtctl.daemon").info("starting", config=str(args.config))
         from rtctl.daemon import run
 
-        return run(args)
+        return run(args, fmt)
     if args.command == "check":
         from rtctl.commands import check
 

@@ -3,10 +3,12 @@
 Order of events — every step that can fail does so before the next touches anything:
 
 1. parse and validate the configuration and every plug-in's options (exit 2 on an error);
-2. open the telemetry file and the control socket; apply the real-time knobs (exit 5 with
-   ``--enforce-rt`` if one cannot be applied);
-3. configure and activate the devices (exit 4 if one cannot be brought up, after closing
-   the others); read the initial state; start the trajectory from it;
+2. open the control socket and the telemetry file; load the run's kernels, or start compiling
+   them in worker processes (a machine's first run, :mod:`rtctl.warmup`); apply the real-time
+   knobs (exit 5 with ``--enforce-rt`` if one cannot be applied);
+3. configure the devices (exit 4 if one cannot be brought up, after closing the others) and
+   read the initial state; wait for the kernels, logging progress, and load them; start the
+   trajectory from the state; activate the devices;
 4. the loop, in the main thread, on absolute deadlines, until the duration ends, ``stop``,
    SIGTERM or SIGINT (exit 0) or a safe stop after a fault (exit 3). An operator's
    ``estop`` stops the robot (damping, then drives off) but not the daemon: ``status``
@@ -26,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import structlog
 
-from rtctl import jsonout, logs
+from rtctl import jsonout
 from rtctl.cli import exit_code_for
 from rtctl.config import load_config, realtime_factor
 from rtctl.control_socket import ControlServer
@@ -39,6 +41,7 @@ from rtctl.safety import SafetyStage, Verdict
 from rtctl.tick import Tick
 from rtctl.timing import PHASES, MonotonicClock, Ticker, apply_rt
 from rtctl.trajectory import JointLimits, hold, retarget, through_waypoints
+from rtctl.warmup import Precompile
 
 EXIT_OK, EXIT_FAULT, EXIT_HARDWARE = 0, 3, 4
 STOP_GRACE_S = 5.0  # longest a controlled stop may take before the drives are cut regardless
@@ -46,9 +49,8 @@ STOP_GRACE_S = 5.0  # longest a controlled stop may take before the drives are c
 log = structlog.get_logger("rtctl.daemon")
 
 
-def run(args) -> int:
-    fmt = logs.resolve_format(args.log_format)
-    logs.configure(fmt, level=args.log_level)
+def run(args, fmt: str) -> int:
+    """``rtctl run``, logging in ``fmt`` (``console`` or ``json``: the CLI has configured it)."""
     daemon = prepare(args)
     daemon.summary_line = fmt == "json"  # on a terminal the table below says it better
     try:
@@ -106,9 +108,10 @@ class Daemon:
     # -- lifecycle ---------------------------------------------------------------------
     def run(self) -> int:
         path = self.args.telemetry or self.cfg.telemetry_path
-        server = None
+        server = compiling = None
         # from here on SIGTERM/SIGINT only set the stop flag: a signal during start-up stops
-        # the run at its first tick, with the same controlled stop and summary as later
+        # the run at its first tick (or, while kernels compile, before the drives are enabled),
+        # with the same summary as later
         previous = {s: signal.signal(s, self._on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
         try:
             # the exclusive resources first (a second daemon on the same socket or telemetry
@@ -116,10 +119,11 @@ class Daemon:
             server = ControlServer(self.args.socket or self.cfg.socket_path, self._handle, n_joints=self.model.nq)
             if path:
                 self.recorder = self._open_recorder(Path(path))
+            compiling = Precompile(self._warm_up_groups()).start()  # before the RT knobs: workers run as usual
             for report in apply_rt(self._rt_settings(), enforce=self.args.enforce_rt):
                 log.info("rt knob", **report.as_dict())
-            self._bring_up()
-            self._loop(server)
+            if self._bring_up(compiling):
+                self._loop(server)
             self._fault_if_latched()
         except HardwareError as e:
             log.error("hardware failed", error=str(e))
@@ -130,6 +134,8 @@ class Daemon:
             self.stop_reason = self.stop_reason or str(e)
             raise
         finally:
+            if compiling is not None:
+                compiling.abort()
             for dev in self.rt.all_devices:
                 dev.close()
             if server is not None:
@@ -162,7 +168,9 @@ class Daemon:
             rt = replace(rt, priority=0)
         return rt
 
-    def _bring_up(self) -> None:
+    def _bring_up(self, compiling: Precompile) -> bool:
+        """Configure the devices, prepare the kernels, plan, activate: True when started, False
+        when a stop came while the kernels compiled (the drives were never enabled)."""
         for dev in self.rt.all_devices:
             try:
                 dev.configure()
@@ -181,12 +189,15 @@ class Daemon:
             np.put(state.position, idx, dev.state.position)
             np.put(state.velocity, idx, dev.state.velocity)
         guarded.check_start(self.cfg, state.position)
+        if not compiling.wait(stop=lambda: self.stop_reason is not None):
+            log.info("stopped before start", reason=self.stop_reason)
+            return False
+        compiling.finish()
         try:
             self.tick.trajectory = self._initial_trajectory(state.position.copy())
         except TrajectoryError as e:  # the devices report a start the limits do not allow
             raise HardwareError(f"cannot start the trajectory from the measured position: {e}") from None
         self.tick.trajectory.sample(0.0, self.rt.ref.q, self.rt.ref.qd, self.rt.ref.qdd)
-        self._warm_up()
         for c in self.rt.controllers:
             c.reset(state)
         for dev in self.rt.all_devices:
@@ -197,16 +208,24 @@ class Daemon:
         log.info("started", config=str(self.cfg.file), robot=self.model.name, rate_hz=self.cfg.loop.rate_hz,
                  realtime_factor=self.cfg.loop.realtime_factor, devices=[d.name for d in self.rt.all_devices],
                  controllers=[c.name for c in self.rt.controllers])
+        return True
 
-    def _warm_up(self) -> None:
-        """Run every compiled path once on throwaway outputs, so that no tick pays for
-        loading (or compiling) a numba kernel."""
-        n = self.model.nq
-        scratch = JointCommand(n)
-        for c in self.rt.controllers:
-            c.update(0.0, self.rt.state, self.rt.ref, scratch)
-        # the safety stage's normal and fault paths (hold with gravity, damped stop): the first
-        # real fault must not stall the loop longer than the drives' 20 ms watchdog
+    def _warm_up_groups(self) -> list:
+        """Every compiled path of this run, as groups that run it once on throwaway outputs (so
+        that no tick pays for loading or compiling a numba kernel), in the order workers take
+        them (:class:`~rtctl.warmup.Precompile`): a simulated plant first (it compiles the whole
+        dynamics library the controllers and the safety stage share), then the guard, the
+        controllers, the safety stage."""
+        scratch = JointCommand(self.model.nq)
+        devices = [(f"device {d.name}", d.warm_up) for d in self.rt.all_devices if hasattr(d, "warm_up")]
+        guard = [("guard", lambda: guarded.warm_up(self.cfg, self.guard))] if self.guard is not None else []
+        controllers = [(f"controller {c.name}", lambda c=c: c.update(0.0, self.rt.state, self.rt.ref, scratch))
+                       for c in self.rt.controllers]
+        return devices + guard + controllers + [("safety stage", lambda: self._warm_up_safety(scratch))]
+
+    def _warm_up_safety(self, scratch) -> None:
+        """The safety stage's normal and fault paths (hold with gravity, damped stop): the first
+        real fault must not stall the loop longer than the drives' 20 ms watchdog."""
         spare = SafetyStage.from_model(self.model, self.cfg.safety, device_joints=self.rt.device_joints,
                                        gravity=self.safety.gravity)
         spare.log_events = False
@@ -215,11 +234,6 @@ class Daemon:
         spare.check(0.0, 1, self.rt.state, statuses, scratch, False, "warm-up")  # → hold
         spare.estop("warm-up")
         spare.check(0.0, 2, self.rt.state, statuses, scratch, True)  # → damped stop
-        guarded.warm_up(self.cfg, self.guard)
-        for dev in self.rt.all_devices:
-            warm_up = getattr(dev, "warm_up", None)
-            if warm_up is not None:
-                warm_up()
 
     def _check_trajectory(self) -> None:
         """Plan the configured trajectory from its first waypoint now: the measured start is

@@ -73,3 +73,12 @@ def slotine_li_regressor(model: Model, q, qd, qdr, qddr, kind: str = "cstar") ->
 def regressor(model: Model, q, qd, qdd) -> np.ndarray:
     """The standard regressor Y(q, q̇, q̈): Y π = RNEA(q, q̇, q̈), π = model.params.ravel()."""
     return slotine_li_regressor(model, q, qd, qd, qdd, "cstar")
+
+
+def regressor_mass_matrix(model: Model, q) -> np.ndarray:
+    """H(q) column by column, H[:, j] = (Y(q, 0, e_j) − Y(q, 0, 0)) π: plain numpy, nothing to
+    compile — for checks at configuration time, which must not wait for a kernel (O(n³))."""
+    n = model.nq
+    q, zero, pi = checks.vector(q, n, "q"), np.zeros(n), model.params.ravel()
+    g = regressor(model, q, zero, zero) @ pi
+    return np.stack([regressor(model, q, zero, e) @ pi - g for e in np.eye(n)], axis=1)
