@@ -45,9 +45,11 @@ TARGETS = {
     "busload": (["rtctl/busload.py"], "tests/can/test_busload.py", 180),
     # drivers/protocols, one target per protocol so each mutant runs only its own tests ("protocols": all)
     "protocols-mit": (["drivers/protocols/mit.py", "drivers/protocols/mit_layout.py"],
-                      "tests/can/test_mit_codec.py tests/can/test_mit_drive.py tests/can/test_mit_can_driver.py", 240),
+                      "tests/can/test_mit_layout.py tests/can/test_mit_codec.py tests/can/test_mit_drive.py "
+                      "tests/can/test_mit_can_driver.py", 240),
     "protocols-cia402": (["drivers/protocols/cia402.py", "drivers/protocols/cia402_layout.py"],
-                         "tests/can/test_cia402_protocol.py tests/can/test_cia402_driver.py", 240),
+                         "tests/can/test_cia402_layout.py tests/can/test_cia402_protocol.py "
+                         "tests/can/test_cia402_driver.py", 240),
     "protocols-leg": (["drivers/protocols/leg_board.py"], "tests/leg/test_codec.py tests/leg/test_serial_board.py", 180),
     "can_joints": (["drivers/can_joints.py"], "tests/can/test_mit_can_driver.py tests/hil/test_mit_can_driver.py "
                    "tests/hil/test_can_config.py", 240),
