@@ -21,6 +21,9 @@ def test_golden_command_frame():
     assert bytes(frame).hex() == "a55a430709df80"  # sync, 'C', seq 7, knee 10 ankle 01, CRC
     d = lb.Decoder(lb.COMMAND)
     assert d.feed(frame) == 1 and lb.unpack_actions(d.actions) == (lb.INCREASE, lb.DECREASE) and d.seq == 7
+    # 00 hold, 11 release: knee in bits 3-2, ankle in bits 1-0
+    assert bytes(lb.encode_command(8, lb.RELEASE, lb.HOLD)) == _reference_frame(0x43, bytes([8, 0b1100]))
+    assert bytes(lb.encode_command(9, lb.HOLD, lb.RELEASE)) == _reference_frame(0x43, bytes([9, 0b0011]))
 
 
 def test_golden_sensor_frame():
@@ -31,6 +34,15 @@ def test_golden_sensor_frame():
     d = lb.Decoder(lb.SENSOR)
     assert d.feed(frame) == 1 and d.seq == 255 and d.status == 0x1F
     assert np.allclose(d.channels, channels, atol=5e-4)
+
+
+
+def test_sensor_status_bits_and_saturated_channels():
+    # status: the applied actions in bits 0-3, the watchdog in bit 4; channels clip to ±32767 counts
+    status = lb.WATCHDOG | lb.pack_actions(lb.INCREASE, lb.HOLD)
+    frame = lb.encode_sensor(1, status, [40.0, -40.0, 32.767, -32.767, 32.7674])
+    body = bytes([1, 0b1_1000]) + b"".join(v.to_bytes(2, "little", signed=True) for v in (32767, -32767, 32767, -32767, 32767))
+    assert bytes(frame) == _reference_frame(0x53, body)
 
 
 def _flips(frame: bytes, bits):
@@ -77,6 +89,13 @@ def test_split_frames_lost_frames_and_foreign_frames_are_counted():
         d.feed(stream[i:i + 5])
     assert d.counters["frames"] == 4 and d.counters["lost_frames"] == 2 and d.seq == 15
     assert d.counters["crc_errors"] == 0 and d.counters["skipped_bytes"] == lb.COMMAND_LENGTH
+
+
+def test_lost_frames_are_counted_from_seq_0_and_across_the_wrap():
+    d = lb.Decoder(lb.SENSOR)
+    for seq in (0, 3, 254, 255, 0, 1, 255):  # gaps: 2, 250, 0, 0, 0, 253
+        d.feed(lb.encode_sensor(seq, 0, [0.0] * 5))
+    assert d.counters["frames"] == 7 and d.counters["lost_frames"] == 2 + 250 + 253
 
 
 def test_encoders_check_their_inputs():
