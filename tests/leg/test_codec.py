@@ -141,6 +141,10 @@ def test_skipped_bytes_count_exactly_the_bytes_outside_frames():
     assert d.feed(ends_in_a5) == 1 and d.counters["skipped_bytes"] == 3  # the lone A5
     # a frame's own last A5 is no garbage: nothing more is skipped
     assert d.feed(lb.encode_sensor(6, 0, [0.0] * 5)) == 1 and d.counters["skipped_bytes"] == 3
+    # garbage after a frame in the same read; a sync split across two reads
+    frame = lb.encode_sensor(7, 0, [0.0] * 5)
+    assert d.feed(frame + b"\x01\x02\xa5") == 1 and d.counters["skipped_bytes"] == 5
+    assert d.feed(frame[1:]) == 1 and d.seq == 7 and d.counters["skipped_bytes"] == 5
 
 
 @settings(max_examples=100, deadline=None)
