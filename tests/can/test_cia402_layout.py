@@ -41,7 +41,7 @@ def test_a_drive_table_overrides_the_scale_and_sets_the_mounting():
     assert [j.node_id for j in (waist, shoulder, elbow)] == [1, 127, 64]
     assert (waist.rated_torque, waist.counts_per_rev, waist.direction, waist.offset) == (40.0, 4096, 1.0, 0.0)
     assert (shoulder.rated_torque, shoulder.counts_per_rev, shoulder.direction, shoulder.offset) == (90.0, 4096, -1.0, 0.5)
-    assert (elbow.rated_torque, elbow.counts_per_rev, elbow.direction) == (40.0, 2**31 - 1, 1.0)
+    assert (elbow.rated_torque, elbow.counts_per_rev, elbow.direction, elbow.offset) == (40.0, 2**31 - 1, 1.0, 0.0)
 
 
 def test_the_rated_torque_is_whole_milli_newton_metres():

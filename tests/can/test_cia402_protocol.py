@@ -90,6 +90,8 @@ def test_statusword_round_trip_through_python_canopens_masks(state):
     assert bool(word & c.SW_VOLTAGE_ENABLED) == (state not in (c.NOT_READY, c.SWITCH_ON_DISABLED, c.FAULT))
     assert c.is_operation_enabled(word) == (state == c.OPERATION_ENABLED)
     assert c.is_fault(word) == (state == c.FAULT)
+    # bit 9 remote: the controlword is obeyed; bit 12 in CST: the target torque is followed
+    assert word & 0x0200 and bool(word & 0x1000) == (state == c.OPERATION_ENABLED)
 
 
 @pytest.mark.parametrize("start", c.STATES)
@@ -199,7 +201,8 @@ def test_a_pdo_set_the_driver_cannot_use_is_refused():
     od[c.TPDO_MAP + 1][0].default = 0  # velocity not mapped anywhere
     with pytest.raises(ValueError, match="0x606c"):
         c.PdoLayout.from_od(od)
-    for entry, match in ((0x60410010, "0x6041 is mapped twice"), (0x606C0010, "16 bits for 0x606c")):
+    for entry, match in ((0x60410010, "mapping 0x1a01: object 0x6041 is mapped twice"),
+                         (0x606C0010, "16 bits for 0x606c, a 32-bit object"), (0x606C0021, "33 bits for 0x606c")):
         od = canopen.import_od(str(c.EDS), 0)
         od[c.TPDO_MAP + 1][1].default = entry
         with pytest.raises(ValueError, match=match):
@@ -259,7 +262,28 @@ def test_cob_ids_states_and_modes_are_python_canopens(tmp_path):
     assert c.CST_SUPPORTED == OperationMode.SUPPORTED["CYCLIC SYNCHRONOUS TORQUE"]
 
 
+# CiA 301 / CiA 402-2 names of the objects the driver and the emulated drive exchange
+STANDARD_OBJECTS = {
+    c.DEVICE_TYPE: "Device type", c.ERROR_REGISTER: "Error register", c.HEARTBEAT_TIME: "Producer heartbeat time",
+    c.ERROR_CODE: "Error code", c.CONTROLWORD: "Controlword", c.STATUSWORD: "Statusword",
+    c.MODES_OF_OPERATION: "Modes of operation", c.MODES_DISPLAY: "Modes of operation display",
+    c.POSITION: "Position actual value", c.VELOCITY: "Velocity actual value", c.TARGET_TORQUE: "Target torque",
+    c.MAX_TORQUE: "Max torque", c.RATED_TORQUE: "Motor rated torque", c.TORQUE: "Torque actual value",
+    c.ENCODER_RESOLUTION: "Position encoder resolution", c.SUPPORTED_MODES: "Supported drive modes",
+    c.RPDO_COMM: "RPDO1 communication parameter", c.RPDO_MAP: "RPDO1 mapping parameter",
+    c.TPDO_COMM: "TPDO1 communication parameter", c.TPDO_MAP: "TPDO1 mapping parameter",
+}
+
+
+def test_object_indices_name_the_standards_objects():
+    od = canopen.import_od(str(c.EDS), 1)
+    assert {index: od[index].name for index in STANDARD_OBJECTS} == STANDARD_OBJECTS
+    assert od[c.RPDO_COMM][c.EVENT_TIMER].name == "Event timer"
+
+
 def test_emcy_frames():
+    # CiA 301: 0x8250 "RPDO timeout", error register 0x11 (generic + communication)
+    assert c.emcy_code(bytes.fromhex("50 82 11 00 00 00 00 00")) == c.EMCY_RPDO_TIMEOUT
     assert c.emcy_code(EMCY_STRUCT.pack(0x8250, 0x11, b"")) == 0x8250
     assert c.emcy_code(b"\x50\x82\x11") is None
     assert c.emcy_description(c.EMCY_RPDO_TIMEOUT) == "Monitoring"
