@@ -76,8 +76,8 @@ def test_a_missing_rated_torque_is_named_where_it_belongs():
     refused("devices[0].rated_torque", "'waist'", drives={})
     refused("devices[0].drives.shoulder.rated_torque", "'shoulder'",
             drives={"waist": {"rated_torque": 1.0}, "shoulder": {"direction": -1}})
-    assert [j.rated_torque for j in read(drives={n: {"rated_torque": k + 1.0} for k, n in enumerate(NAMES)})] == [
-        1.0, 2.0, 3.0]
+    joints = read(drives={n: {"rated_torque": k + 1.0} for k, n in enumerate(NAMES)})
+    assert [(j.rated_torque, j.direction, j.offset) for j in joints] == [(1.0, 1.0, 0.0), (2.0, 1.0, 0.0), (3.0, 1.0, 0.0)]
 
 
 @pytest.mark.parametrize("direction", [0, 2, -2])

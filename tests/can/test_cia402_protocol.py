@@ -207,6 +207,10 @@ def test_a_pdo_set_the_driver_cannot_use_is_refused():
         od[c.TPDO_MAP + 1][1].default = entry
         with pytest.raises(ValueError, match=match):
             c.PdoLayout.from_od(od)
+    od = canopen.import_od(str(c.EDS), 0)
+    del od[c.TPDO_MAP + 1]  # TPDO2's communication parameter without its mapping: no PDO
+    with pytest.raises(ValueError, match="0x606c"):
+        c.PdoLayout.from_od(od)
     # an 8-bit statusword, position and velocity in TPDO1 (torque in TPDO2): 9 bytes
     od = canopen.import_od(str(c.EDS), 0)
     od[c.STATUSWORD].data_type = datatypes.UNSIGNED8
