@@ -195,7 +195,7 @@ def test_tpdo_codec_matches_python_canopens_pdo_variables(values):
 def test_a_pdo_set_the_driver_cannot_use_is_refused():
     od = canopen.import_od(str(c.EDS), 0)
     od[c.TPDO_MAP + 1][1].default = 0x60610008  # modes display instead of velocity
-    with pytest.raises(ValueError, match="0x6061"):
+    with pytest.raises(ValueError, match="PDO mapping 0x1a01: object 0x6061 is not one"):
         c.PdoLayout.from_od(od)
     od = canopen.import_od(str(c.EDS), 0)
     od[c.TPDO_MAP + 1][0].default = 0  # velocity not mapped anywhere
