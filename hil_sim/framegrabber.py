@@ -41,6 +41,14 @@ def read_options(options: Table) -> tuple[GrabberSettings, Scene]:
     return settings, scene
 
 
+def warm_up_camera(camera: CameraSim) -> None:
+    """Compile (or load from the cache) what a camera and its host run, before the first field."""
+    warm_up_protocol()
+    warm_up_pixels()
+    camera.renderer.freeze(camera.q_source(), 64)
+    camera.renderer.draw(np.zeros((2, 64), dtype=np.float32), range(0, 2), 0, 1, 0, 64)
+
+
 class SimFrameGrabber(HostFrameGrabber):
     """The camera in lock-step with the loop, read through the shared-buffer protocol."""
 
@@ -63,10 +71,7 @@ class SimFrameGrabber(HostFrameGrabber):
         return cls(device.name, settings, camera, memory)
 
     def warm_up(self) -> None:
-        warm_up_protocol()
-        warm_up_pixels()
-        self.camera.renderer.freeze(self.camera.q_source(), 64)
-        self.camera.renderer.draw(np.zeros((2, 64), dtype=np.float32), range(0, 2), 0, 1, 0, 64)
+        warm_up_camera(self.camera)
 
     def _poll(self, t: float) -> bool:
         self.camera.step(round(t * 1e9))  # the device first, in lock-step: then the host's end
@@ -93,6 +98,8 @@ class FreeRunningCamera:
         self._thread = threading.Thread(target=self._run, name="camera", daemon=True)
 
     def start(self) -> None:
+        """Compile first (a cold cache took seconds: the first fields were all missed), then run."""
+        warm_up_camera(self.camera)
         self._thread.start()
 
     def _run(self) -> None:

@@ -166,6 +166,23 @@ def _check(c, T, limits, segment):
     raise TrajectoryError(f"{segment}: duration {T:.6g} s violates the limits ({detail})")
 
 
+def _brake_then_move(q, qd, qdd, q1, limits, duration=None):
+    """Two moves (duration, end): brake to rest in the shortest time within the limits, then
+    go from rest to ``q1`` — in the shortest time, or in what is left of ``duration`` (when
+    nothing is left, the requested time cannot be met)."""
+    T = shortest_duration(q, qd, qdd, None, limits.v_max, limits.a_max, limits.q_min, limits.q_max)
+    if T is None:
+        raise TrajectoryError("no duration brings the current motion to rest within the limits")
+    q_stop = braking_target(q, qd, qdd, T)
+    if duration is None:
+        rest = rest_to_rest_duration(q1 - q_stop, limits.v_max, limits.a_max)
+        return [(T, q_stop)] + ([(rest, q1)] if rest > 0.0 else [])
+    if duration <= T:
+        raise TrajectoryError(f"the move to waypoint 0: duration {duration:.6g} s violates the limits (the "
+                              f"current motion needs {T:.6g} s to come to rest within them)")
+    return [(T, q_stop), (duration - T, q1)]
+
+
 def retarget(t: float, q, qd, qdd, waypoints, limits: JointLimits, *, duration: float | None = None,
              durations=None, smooth: bool = False, dwell=0.0) -> JointTrajectory:
     """Replace the running trajectory at time ``t`` (the control socket's ``move``): from the
@@ -175,7 +192,9 @@ def retarget(t: float, q, qd, qdd, waypoints, limits: JointLimits, *, duration: 
 
     The first move is one quintic in the shortest duration within the limits (closed form
     from rest, else :func:`~rtctl.trajectory.quintic.shortest_duration`) or in the requested
-    ``duration``. When no single quintic fits (a fast joint must stop while another barely
+    ``duration`` (braking first, as below, when one quintic from the current motion cannot take
+    that long within the limits; the move from rest gets the rest of the time). When no single
+    quintic fits (a fast joint must stop while another barely
     moves), it brakes first — to :func:`~rtctl.trajectory.quintic.braking_target` — and then
     moves from rest. ``durations`` (one per later segment, as :func:`through_waypoints`
     takes them: segment k joins waypoint k to k + 1) time the rest of the way. Raises
@@ -188,26 +207,21 @@ def retarget(t: float, q, qd, qdd, waypoints, limits: JointLimits, *, duration: 
     rest = through_waypoints(W, limits, smooth=smooth, dwell=dwell, durations=durations)  # validates the waypoints
     at_rest = not (np.any(qd) or np.any(qdd))
     T_all, C_all = ([], []) if rest.duration == 0.0 else (list(np.diff(rest.knots)), list(rest.coeffs))
-    if duration is not None or at_rest:
+    lim = (limits.v_max, limits.a_max, limits.q_min, limits.q_max)
+    if at_rest:
         T = float(duration) if duration is not None else rest_to_rest_duration(W[0] - q, limits.v_max, limits.a_max)
         moves = [] if duration is None and T == 0.0 else [(T, W[0])]  # from rest at W[0]: nothing to do
+    elif duration is not None:
+        moves = [(float(duration), W[0])]
+        if not fits(coefficients(q, qd, qdd, W[0], 0.0, 0.0, duration), duration, *lim):
+            moves = _brake_then_move(q, qd, qdd, W[0], limits, duration)
     else:
-        lim = (limits.v_max, limits.a_max, limits.q_min, limits.q_max)
         T = shortest_duration(q, qd, qdd, W[0], *lim)
-        if T is not None:
-            moves = [(T, W[0])]
-        else:  # brake, then move from rest
-            T = shortest_duration(q, qd, qdd, None, *lim)
-            if T is None:
-                raise TrajectoryError("no duration brings the current motion to rest within the limits")
-            q_stop = braking_target(q, qd, qdd, T)
-            moves = [(T, q_stop), (rest_to_rest_duration(W[0] - q_stop, limits.v_max, limits.a_max), W[0])]
-            if moves[1][0] == 0.0:
-                moves.pop()
+        moves = [(T, W[0])] if T is not None else _brake_then_move(q, qd, qdd, W[0], limits)
     T_first, C_first, start = [], [], (q, qd, qdd)
-    for T, end in moves:
+    for (T, end), label in zip(moves, ["braking", "the move to waypoint 0"][2 - len(moves):]):
         c = coefficients(*start, end, 0.0, 0.0, T)
-        _check(c, T, limits, "the move to waypoint 0" if end is W[0] else "braking")
+        _check(c, T, limits, label)
         T_first.append(T)
         C_first.append(c)
         start = (end, 0.0, 0.0)

@@ -2,10 +2,12 @@
 against python-canopen's transition table and the standard's numbering, the statusword both
 ways, the master's walk to OPERATION ENABLED from every state, a fault in every state of the
 emulated drive, and the PDO codec against python-canopen's own PDO maps of the shipped EDS."""
+import can
 import canopen
 import pytest
 from canopen.emcy import EMCY_STRUCT
-from canopen.profiles.p402 import State402
+from canopen.objectdictionary import datatypes
+from canopen.profiles.p402 import OperationMode, State402
 
 from drivers.protocols import cia402 as c
 from hil_sim.cia402_drive import Cia402Drive
@@ -44,6 +46,28 @@ def test_automatic_transitions_and_quick_stop_from_the_lower_states():
     assert c.device_transition(c.READY, c.CW_ENABLE_OPERATION, 0) == (c.OPERATION_ENABLED, 4)
 
 
+def command_of(cw):
+    """CiA 402-2 Table 26 by its bits (7 fault reset, 3 enable operation, 2 quick stop (low
+    active), 1 enable voltage, 0 switch on): the device-control command, None for none."""
+    if cw & 0x80:
+        return None  # a fault reset: a command of the FAULT state only
+    if not cw & 0b0010:
+        return c.CW_DISABLE_VOLTAGE
+    if not cw & 0b0100:
+        return c.CW_QUICK_STOP
+    if not cw & 0b0001:
+        return c.CW_SHUTDOWN
+    return c.CW_ENABLE_OPERATION if cw & 0b1000 else c.CW_SWITCH_ON
+
+
+@pytest.mark.parametrize("state", [s for s in DEVICE_STATES if s != c.FAULT])
+def test_every_controlword_acts_as_the_command_its_bits_encode(state):
+    for cw in range(0x100):  # bits 4-6 (mode specific) never change the command
+        command = command_of(cw)
+        expected = (state, None) if command is None else c.device_transition(state, command, 0)
+        assert c.device_transition(state, cw, 0) == expected, hex(cw)
+
+
 # (state, controlword) pairs that move the drive: python-canopen's table and the three above
 APPLIES = {(frm, cw) for (frm, _), cw in State402.TRANSITIONTABLE.items()} | {
     (c.READY, c.CW_QUICK_STOP), (c.SWITCHED_ON, c.CW_QUICK_STOP), (c.READY, c.CW_ENABLE_OPERATION)}
@@ -66,6 +90,8 @@ def test_statusword_round_trip_through_python_canopens_masks(state):
     assert bool(word & c.SW_VOLTAGE_ENABLED) == (state not in (c.NOT_READY, c.SWITCH_ON_DISABLED, c.FAULT))
     assert c.is_operation_enabled(word) == (state == c.OPERATION_ENABLED)
     assert c.is_fault(word) == (state == c.FAULT)
+    # bit 9 remote: the controlword is obeyed; bit 12 in CST: the target torque is followed
+    assert word & 0x0200 and bool(word & 0x1000) == (state == c.OPERATION_ENABLED)
 
 
 @pytest.mark.parametrize("start", c.STATES)
@@ -76,7 +102,9 @@ def test_the_master_walks_every_state_to_operation_enabled(start):
         if state == c.OPERATION_ENABLED:
             break
         cw = c.controlword_towards_operation(c.state_of(c.statusword_of(state)), previous)
-        state, _ = c.device_transition(state, cw, previous)
+        before, (state, _) = state, c.device_transition(state, cw, previous)
+        # every step is python-canopen's controlword for its edge (or, in FAULT, bit 7 low for the edge)
+        assert cw == State402.TRANSITIONTABLE.get((before, state), 0x00), (before, state, hex(cw))
         previous = cw
     assert state == c.OPERATION_ENABLED and step <= 5, (start, step)
 
@@ -167,15 +195,99 @@ def test_tpdo_codec_matches_python_canopens_pdo_variables(values):
 def test_a_pdo_set_the_driver_cannot_use_is_refused():
     od = canopen.import_od(str(c.EDS), 0)
     od[c.TPDO_MAP + 1][1].default = 0x60610008  # modes display instead of velocity
-    with pytest.raises(ValueError, match="0x6061"):
+    with pytest.raises(ValueError, match="PDO mapping 0x1a01: object 0x6061 is not one"):
         c.PdoLayout.from_od(od)
     od = canopen.import_od(str(c.EDS), 0)
     od[c.TPDO_MAP + 1][0].default = 0  # velocity not mapped anywhere
     with pytest.raises(ValueError, match="0x606c"):
         c.PdoLayout.from_od(od)
+    for entry, match in ((0x60410010, "mapping 0x1a01: object 0x6041 is mapped twice"),
+                         (0x606C0010, "16 bits for 0x606c, a 32-bit object"), (0x606C0021, "33 bits for 0x606c")):
+        od = canopen.import_od(str(c.EDS), 0)
+        od[c.TPDO_MAP + 1][1].default = entry
+        with pytest.raises(ValueError, match=match):
+            c.PdoLayout.from_od(od)
+    od = canopen.import_od(str(c.EDS), 0)
+    del od[c.TPDO_MAP + 1]  # TPDO2's communication parameter without its mapping: no PDO
+    with pytest.raises(ValueError, match="0x606c"):
+        c.PdoLayout.from_od(od)
+    # an 8-bit statusword, position and velocity in TPDO1 (torque in TPDO2): 9 bytes
+    od = canopen.import_od(str(c.EDS), 0)
+    od[c.STATUSWORD].data_type = datatypes.UNSIGNED8
+    od[c.TPDO_MAP][1].default, od[c.TPDO_MAP][3].default = 0x60410008, 0x606C0020
+    od[c.TPDO_MAP + 1][1].default = 0x60770010
+    with pytest.raises(ValueError, match="longer than 8 bytes"):
+        c.PdoLayout.from_od(od)
+
+
+def eds_variant(tmp_path, *edits):
+    text = c.EDS.read_text()
+    for old, new in edits:
+        assert old in text
+        text = text.replace(old, new)
+    path = tmp_path / "variant.eds"
+    path.write_text(text)
+    return path
+
+
+def test_the_four_predefined_pdos_are_read_and_no_other(tmp_path):
+    # TPDO2's objects in TPDO4 (COB-ID 0x480 + id)
+    path = eds_variant(tmp_path, ("1801", "1803"), ("1A01", "1A03"), ("$NODEID+0x280", "$NODEID+0x480"))
+    node = canopen.RemoteNode(5, canopen.import_od(str(path), 5))
+    canopen.Network().add_node(node)
+    node.pdo.read(from_od=True)
+    theirs = [(k, m.cob_id) for k, m in node.tpdo.map.items() if m.enabled and len(m)]
+    assert [(p.number, p.cob_id(5)) for p in c.PdoLayout.from_eds(path).tpdos] == theirs == [(1, 0x185), (4, 0x485)]
+    # in TPDO5, outside the predefined connection set, or in a disabled TPDO2: velocity is missing
+    for edits in ((("1801", "1804"), ("1A01", "1A04")), (("$NODEID+0x280", "0x80000280"),)):
+        with pytest.raises(ValueError, match="0x606c"):
+            c.PdoLayout.from_eds(eds_variant(tmp_path, *edits))
+
+
+def test_cob_ids_states_and_modes_are_python_canopens(tmp_path):
+    network = canopen.Network()
+    network.connect(interface="virtual", channel=f"cia402-{tmp_path.name}", receive_own_messages=False)
+    spy = can.Bus(interface="virtual", channel=f"cia402-{tmp_path.name}")
+    try:
+        node = network.add_node(canopen.RemoteNode(5, canopen.import_od(str(c.EDS), 5)))
+        # what its master listens to: SDO answers, heartbeats, EMCYs of node 5
+        assert {c.SDO_TX_BASE + 5, c.HEARTBEAT_BASE + 5, c.EMCY_BASE + 5} <= set(network.subscribers)
+        assert (node.sdo.rx_cobid, node.sdo.tx_cobid) == (c.SDO_RX_BASE + 5, c.SDO_TX_BASE + 5)
+        network.sync.transmit()
+        node.nmt.send_command(0x01)  # start remote node
+        sent = [spy.recv(1.0) for _ in range(2)]
+        assert [m.arbitration_id for m in sent] == [c.SYNC, c.NMT] and bytes(sent[1].data) == b"\x01\x05"
+    finally:
+        network.disconnect()
+        spy.shutdown()
+    names = (c.NMT_OPERATIONAL, c.NMT_PRE_OPERATIONAL, c.NMT_STOPPED, c.NMT_BOOTUP)
+    assert [canopen.nmt.NMT_STATES[k] for k in names] == ["OPERATIONAL", "PRE-OPERATIONAL", "STOPPED", "INITIALISING"]
+    assert c.CST == OperationMode.CYCLIC_SYNCHRONOUS_TORQUE
+    assert c.CST_SUPPORTED == OperationMode.SUPPORTED["CYCLIC SYNCHRONOUS TORQUE"]
+
+
+# CiA 301 / CiA 402-2 names of the objects the driver and the emulated drive exchange
+STANDARD_OBJECTS = {
+    c.DEVICE_TYPE: "Device type", c.ERROR_REGISTER: "Error register", c.HEARTBEAT_TIME: "Producer heartbeat time",
+    c.ERROR_CODE: "Error code", c.CONTROLWORD: "Controlword", c.STATUSWORD: "Statusword",
+    c.MODES_OF_OPERATION: "Modes of operation", c.MODES_DISPLAY: "Modes of operation display",
+    c.POSITION: "Position actual value", c.VELOCITY: "Velocity actual value", c.TARGET_TORQUE: "Target torque",
+    c.MAX_TORQUE: "Max torque", c.RATED_TORQUE: "Motor rated torque", c.TORQUE: "Torque actual value",
+    c.ENCODER_RESOLUTION: "Position encoder resolution", c.SUPPORTED_MODES: "Supported drive modes",
+    c.RPDO_COMM: "RPDO1 communication parameter", c.RPDO_MAP: "RPDO1 mapping parameter",
+    c.TPDO_COMM: "TPDO1 communication parameter", c.TPDO_MAP: "TPDO1 mapping parameter",
+}
+
+
+def test_object_indices_name_the_standards_objects():
+    od = canopen.import_od(str(c.EDS), 1)
+    assert {index: od[index].name for index in STANDARD_OBJECTS} == STANDARD_OBJECTS
+    assert od[c.RPDO_COMM][c.EVENT_TIMER].name == "Event timer"
 
 
 def test_emcy_frames():
+    # CiA 301: 0x8250 "RPDO timeout", error register 0x11 (generic + communication)
+    assert c.emcy_code(bytes.fromhex("50 82 11 00 00 00 00 00")) == c.EMCY_RPDO_TIMEOUT
     assert c.emcy_code(EMCY_STRUCT.pack(0x8250, 0x11, b"")) == 0x8250
     assert c.emcy_code(b"\x50\x82\x11") is None
     assert c.emcy_description(c.EMCY_RPDO_TIMEOUT) == "Monitoring"

@@ -31,7 +31,12 @@ def start(link):
         link.send(c.NMT, bytes((1, i)))
     boot = link.collect(len(link.ids))
     assert sorted((f.arbitration_id, bytes(f.data)) for f in boot) == [(c.HEARTBEAT_BASE + i, b"\0") for i in link.ids]
-    assert all(d.nmt_state == "OPERATIONAL" for d in link.drives.drives.values())
+    # the boot-ups were queued at power-on: over a real transport they can arrive before the
+    # server has handled the NMT starts sent just now
+    deadline = time.monotonic() + 10.0
+    while not all(d.nmt_state == "OPERATIONAL" for d in link.drives.drives.values()):
+        assert time.monotonic() < deadline, {i: d.nmt_state for i, d in link.drives.drives.items()}
+        time.sleep(0.005)
 
 
 def sync_cycle(link, commands, others=None):

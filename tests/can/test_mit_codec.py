@@ -82,6 +82,58 @@ def test_reply_variants():
         mit.reply_drive_id(enabled[:6], dm)
 
 
+def test_other_models_golden_frames():
+    # AK80-9: v = 12.82 of ±25.64 → 38.46·4095/51.28 = 3071.25 → 0xBFF
+    assert mit.pack_command(DRIVE_MODELS["ak80-9"], 0, 12.82, 0, 0, 0) == bytes.fromhex("7F FF BF F0 00 00 07 FF")
+    # a DM4310 reply (state 8 = over-voltage): effort 0x000 of ±10 N·m; MOS 40 °C, rotor 55 °C
+    r = mit.unpack_reply(bytes.fromhex("81 7F FF 7F F0 00 28 37"), DRIVE_MODELS["dm4310"])
+    assert (r.drive_id, r.effort, r.temperature, r.error) == (1, -10.0, 55, 8)
+
+
+@pytest.mark.parametrize(("model", "newton_metres"), [(KATZ, 18.0), (DRIVE_MODELS["ak80-9"], 18.0),
+                                                      (DRIVE_MODELS["dm4310"], 10.0)])
+def test_the_shipped_models_reply_with_their_torque(model, newton_metres):
+    # Katz and Damiao firmware report torque: effort × torque_constant is the joint torque
+    head = "01" if model.reply_format is mit.ReplyFormat.KATZ else "11"
+    frame = bytes.fromhex(head + " 7F FF 7F FF FF" + (" 28 28" if model.reply_length == 8 else ""))
+    assert mit.unpack_reply(frame, model).effort * model.torque_constant == newton_metres
+
+
+def test_damiao_states_from_8_are_errors():
+    # Damiao: 0 disabled, 1 enabled, 8 over-voltage … 0xE overload (the drive's state nibble)
+    dm = DRIVE_MODELS["dm4310"]
+    for state in range(16):
+        frame = bytes([state << 4 | 3]) + bytes.fromhex("7F FF 7F F7 FF 28 28")
+        assert mit.unpack_reply(frame, dm)[0::5] == (3, state if state >= 8 else 0), state
+    assert mit.pack_reply(dm, 3, 0.0, 0.0, 0.0, enabled=False)[0] == 0x03
+
+
+@pytest.mark.parametrize(("temperature", "byte"), [(127, 0x7F), (128, 0x7F), (400, 0x7F), (-128, 0x80), (-129, 0x80),
+                                                   (-400, 0x80), (0, 0x00), (-1, 0xFF)])
+def test_cubemars_temperature_is_a_saturated_int8(temperature, byte):
+    cube = mit.MitDriveModel(name="ak10", reply_format=mit.ReplyFormat.CUBEMARS)
+    frame = mit.pack_reply(cube, 5, 0.0, 0.0, 0.0, temperature=temperature, error=0x81)
+    assert frame[6:] == bytes([byte, 0x81])
+    assert mit.unpack_reply(frame, cube)[4:] == (max(-128, min(127, temperature)), 0x81)
+
+
+@pytest.mark.parametrize(("temperature", "byte"), [(255, 255), (256, 255), (-1, 0), (0, 0), (1, 1)])
+def test_damiao_temperatures_are_saturated_bytes(temperature, byte):
+    frame = mit.pack_reply(DRIVE_MODELS["dm4310"], 3, 0.0, 0.0, 0.0, temperature=temperature)
+    assert frame[6:] == bytes([byte, byte])
+
+
+def test_model_ranges_must_be_finite_and_increasing():
+    for field in ("p", "v", "kp", "kd", "t", "effort"):
+        for bad in ((1.0, 1.0), (1.0, -1.0), (math.nan, 1.0), (-1.0, math.inf)):
+            with pytest.raises(ValueError, match=field):
+                mit.MitDriveModel(**{field: bad})
+    for bad in (0.0, -1.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="torque_constant"):
+            mit.MitDriveModel(torque_constant=bad)
+    assert mit.MitDriveModel(t=(-1e-3, 1e-3), torque_constant=1e-3).t == (-1e-3, 1e-3)
+
+
 def test_special_frames():
     assert mit.special_frame(Special.ENTER_MOTOR_MODE) == bytes.fromhex("FF FF FF FF FF FF FF FC")
     assert mit.special_frame(Special.EXIT_MOTOR_MODE)[-1] == 0xFD
@@ -91,6 +143,10 @@ def test_special_frames():
         assert mit.special_kind(mit.special_frame(kind)) is kind
     assert mit.special_kind(bytes.fromhex("FF FF FF FF FF FF FF 00")) is None
     assert mit.is_special_prefix(bytes.fromhex("FF FF FF FF FF FF FF 00"))
+    # not special: another length, or anything but FF in the first seven bytes
+    enter = mit.special_frame(Special.ENTER_MOTOR_MODE)
+    for frame in (enter[:7], enter + b"\x00", bytes.fromhex("FF FF FF FF FF FF FE FC"), bytes.fromhex("7F FF FF FF FF FF FF FC")):
+        assert mit.special_kind(frame) is None and not mit.is_special_prefix(frame), frame.hex()
     with pytest.raises(ProtocolError):
         mit.unpack_command(mit.special_frame(Special.SET_ZERO), KATZ)
     with pytest.raises(ProtocolError):
@@ -240,7 +296,12 @@ def test_drive_model_from_config():
     assert model.v == (-30.0, 30.0) and model.t == model.effort == (-7.0, 7.0)
     assert model.reply_format is mit.ReplyFormat.DAMIAO
     assert mit.drive_model_from_table(Table({}, "bus.toml", "buses.arm")) == KATZ
-    with pytest.raises(ConfigError, match=r"buses\.arm\.v_range"):
-        mit.drive_model_from_table(Table({"v_range": [3.0, -3.0]}, "bus.toml", "buses.arm"))
+    for bad in ([3.0, -3.0], [3.0, 3.0]):
+        with pytest.raises(ConfigError, match=r"buses\.arm\.v_range"):
+            mit.drive_model_from_table(Table({"v_range": bad}, "bus.toml", "buses.arm"))
+    # effort follows a new t_range only when the reply reports torque on the torque scale
+    both = mit.drive_model_from_table(Table({"t_range": [-7.0, 7.0], "effort_range": [-2.0, 2.0]}, "b.toml", "x"))
+    assert both.t == (-7.0, 7.0) and both.effort == (-2.0, 2.0)
+    assert mit.drive_model_from_table(Table({"effort_range": [-2.0, 2.0]}, "b.toml", "x")).t == KATZ.t
     with pytest.raises(ConfigError, match=r"buses\.arm\.drive_model"):
         mit.drive_model_from_table(Table({"drive_model": "ak99"}, "bus.toml", "buses.arm"))

@@ -21,6 +21,9 @@ def test_golden_command_frame():
     assert bytes(frame).hex() == "a55a430709df80"  # sync, 'C', seq 7, knee 10 ankle 01, CRC
     d = lb.Decoder(lb.COMMAND)
     assert d.feed(frame) == 1 and lb.unpack_actions(d.actions) == (lb.INCREASE, lb.DECREASE) and d.seq == 7
+    # 00 hold, 11 release: knee in bits 3-2, ankle in bits 1-0
+    assert bytes(lb.encode_command(8, lb.RELEASE, lb.HOLD)) == _reference_frame(0x43, bytes([8, 0b1100]))
+    assert bytes(lb.encode_command(9, lb.HOLD, lb.RELEASE)) == _reference_frame(0x43, bytes([9, 0b0011]))
 
 
 def test_golden_sensor_frame():
@@ -31,6 +34,15 @@ def test_golden_sensor_frame():
     d = lb.Decoder(lb.SENSOR)
     assert d.feed(frame) == 1 and d.seq == 255 and d.status == 0x1F
     assert np.allclose(d.channels, channels, atol=5e-4)
+
+
+
+def test_sensor_status_bits_and_saturated_channels():
+    # status: the applied actions in bits 0-3, the watchdog in bit 4; channels clip to ±32767 counts
+    status = lb.WATCHDOG | lb.pack_actions(lb.INCREASE, lb.HOLD)
+    frame = lb.encode_sensor(1, status, [40.0, -40.0, 32.767, -32.767, 32.7674])
+    body = bytes([1, 0b1_1000]) + b"".join(v.to_bytes(2, "little", signed=True) for v in (32767, -32767, 32767, -32767, 32767))
+    assert bytes(frame) == _reference_frame(0x53, body)
 
 
 def _flips(frame: bytes, bits):
@@ -79,6 +91,13 @@ def test_split_frames_lost_frames_and_foreign_frames_are_counted():
     assert d.counters["crc_errors"] == 0 and d.counters["skipped_bytes"] == lb.COMMAND_LENGTH
 
 
+def test_lost_frames_are_counted_from_seq_0_and_across_the_wrap():
+    d = lb.Decoder(lb.SENSOR)
+    for seq in (0, 3, 254, 255, 0, 1, 255):  # gaps: 2, 250, 0, 0, 0, 253
+        d.feed(lb.encode_sensor(seq, 0, [0.0] * 5))
+    assert d.counters["frames"] == 7 and d.counters["lost_frames"] == 2 + 250 + 253
+
+
 def test_encoders_check_their_inputs():
     with pytest.raises(ValueError):
         lb.encode_command(0, 4, 0)
@@ -86,3 +105,55 @@ def test_encoders_check_their_inputs():
         lb.encode_sensor(0, 0, [0.0] * 4)
     with pytest.raises(ValueError):
         lb.encode_sensor(0, 0, [np.nan] * 5)
+
+
+def test_every_action_code_round_trips_and_no_other_is_accepted():
+    codes = [(knee, ankle) for knee in range(4) for ankle in range(4)]
+    assert [lb.unpack_actions(lb.pack_actions(*code)) for code in codes] == codes
+    assert sorted(lb.pack_actions(*code) for code in codes) == list(range(16))  # 4 bits, all used
+    for knee, ankle in ((-1, 0), (4, 0), (0, -1), (0, 4)):
+        with pytest.raises(ValueError):
+            lb.pack_actions(knee, ankle)
+
+
+def test_a_fresh_decoder_reports_nothing_received():
+    # before the first frame: no sequence number, no watchdog trip, no actions (hold), no load
+    for kind in (lb.SENSOR, lb.COMMAND):
+        d = lb.Decoder(kind)
+        assert (d.seq, d.status, d.actions) == (-1, 0, lb.HOLD) and not d.channels.any()
+        assert d.counters == {"frames": 0, "crc_errors": 0, "skipped_bytes": 0, "lost_frames": 0}
+
+
+def test_a_corrupted_frame_is_one_crc_error_and_all_its_bytes_are_skipped():
+    bad = lb.encode_sensor(1, 0, [0.1, 0.2, 0.3, 0.4, 0.5])
+    bad[-1] ^= 0x40  # CRC
+    d = lb.Decoder(lb.SENSOR)
+    assert d.feed(bad + lb.encode_sensor(2, 0, [0.0] * 5)) == 1 and d.seq == 2
+    assert d.counters == {"frames": 1, "crc_errors": 1, "skipped_bytes": lb.SENSOR_LENGTH, "lost_frames": 0}
+
+
+def test_skipped_bytes_count_exactly_the_bytes_outside_frames():
+    # garbage ending in A5, which may begin a sync and is kept for the next feed
+    d = lb.Decoder(lb.SENSOR)
+    assert d.feed(b"\x00\x11\xa5") == 0 and d.counters["skipped_bytes"] == 2
+    ends_in_a5 = lb.encode_sensor(5, 0, [0.0] * 5)  # CRC 0xA56C, sent low byte first
+    assert ends_in_a5[-1] == 0xA5
+    assert d.feed(ends_in_a5) == 1 and d.counters["skipped_bytes"] == 3  # the lone A5
+    # a frame's own last A5 is no garbage: nothing more is skipped
+    assert d.feed(lb.encode_sensor(6, 0, [0.0] * 5)) == 1 and d.counters["skipped_bytes"] == 3
+    # garbage after a frame in the same read; a sync split across two reads
+    frame = lb.encode_sensor(7, 0, [0.0] * 5)
+    assert d.feed(frame + b"\x01\x02\xa5") == 1 and d.counters["skipped_bytes"] == 5
+    assert d.feed(frame[1:]) == 1 and d.seq == 7 and d.counters["skipped_bytes"] == 5
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.binary(max_size=60), st.lists(st.integers(1, 40), max_size=8))
+def test_skipped_bytes_are_the_garbage_however_the_stream_is_cut(garbage, cuts):
+    frames = [lb.encode_sensor(s, 0, [0.0, 0.1, 0.2, 0.3, 0.4]) for s in (4, 5)]
+    stream = garbage + frames[0] + frames[1]
+    d, at = lb.Decoder(lb.SENSOR), 0
+    for n in [*cuts, len(stream)]:
+        d.feed(stream[at:at + n])
+        at += n
+    assert d.counters["frames"] == 2 and d.seq == 5 and d.counters["skipped_bytes"] == len(garbage)

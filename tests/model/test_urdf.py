@@ -161,3 +161,40 @@ def test_axes_are_read_as_pinocchio_reads_them_unnormalised_or_absent(seed, pin)
         poses = link_poses(model, q)
         for k in range(len(axes)):
             np.testing.assert_allclose(poses[k], pdata.oMi[k + 1].homogeneous, atol=1e-12)
+
+
+def _full_inertia(rng):
+    """A physically valid inertia tensor with products of inertia (a rotated diagonal one)."""
+    principal = rng.uniform(0.05, 0.3, 3)
+    principal[2] = min(principal[2], principal[0] + principal[1] - 1e-3)  # triangle inequality
+    R = rot_axis(rng.normal(size=3) / 2, rng.uniform(0, 3))
+    J = R @ np.diag(principal) @ R.T
+    J = J.tolist()
+    return (f'<inertia ixx="{J[0][0]!r}" ixy="{J[0][1]!r}" ixz="{J[0][2]!r}" iyy="{J[1][1]!r}" '
+            f'iyz="{J[1][2]!r}" izz="{J[2][2]!r}"/>')
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_full_inertia_tensors_read_merged_and_written_as_pinocchio_reads_them(seed, pin):
+    """Products of inertia on the moving links and on rotated, offset fixed links merged into
+    them: every body's 10 parameters as Pinocchio has them, read from our URDF and from the one
+    to_urdf writes."""
+    rng = np.random.default_rng(200 + seed)
+    vec = lambda v: " ".join(repr(float(x)) for x in v)  # noqa: E731
+    links, joints = ['<link name="base"/>'], ""
+    for k in range(3):
+        for name in (f"l{k}", f"l{k}_tool"):
+            links.append(f'<link name="{name}"><inertial><origin xyz="{vec(rng.uniform(-0.2, 0.2, 3))}" '
+                         f'rpy="{vec(rng.uniform(-1, 1, 3))}"/><mass value="{float(rng.uniform(0.5, 3))!r}"/>'
+                         f'{_full_inertia(rng)}</inertial></link>')
+        joints += (f'<joint name="j{k}" type="revolute"><parent link="{"base" if k == 0 else f"l{k - 1}"}"/>'
+                   f'<child link="l{k}"/><origin xyz="{vec(rng.uniform(-0.3, 0.3, 3))}" rpy="{vec(rng.uniform(-1, 1, 3))}"/>'
+                   f'<axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>'
+                   f'<joint name="f{k}" type="fixed"><parent link="l{k}"/><child link="l{k}_tool"/>'
+                   f'<origin xyz="{vec(rng.uniform(-0.3, 0.3, 3))}" rpy="{vec(rng.uniform(-1, 1, 3))}"/></joint>')
+    text = f'<robot name="full">{"".join(links)}{joints}</robot>'
+    model = parse_urdf(text)
+    for source in (text, model.to_urdf()):
+        pmodel = pin.buildModelFromXML(source)
+        for i in range(3):
+            np.testing.assert_allclose(model.params[i], pmodel.inertias[i + 1].toDynamicParameters(), atol=1e-10)

@@ -2,6 +2,7 @@
 
     python tests/mutation/run.py safety [--sample N] [--workdir DIR] [--keep]
     python tests/mutation/run.py all --sample 150
+    python tests/mutation/run.py protocols         (protocols-mit, protocols-cia402, …)
 
 For each target (see ``TARGETS``) it copies a committed tree (``git archive``, HEAD or ``--rev``) into a
 work directory — cosmic-ray rewrites the source on disk, one mutant at a time, so it must
@@ -42,13 +43,20 @@ TARGETS = {
     "safety": (["rtctl/safety"], "tests/safety", 240),
     "timing": (["rtctl/timing"], "tests/timing", 180),
     "busload": (["rtctl/busload.py"], "tests/can/test_busload.py", 180),
-    "protocols": (["drivers/protocols"], "tests/can/test_mit_codec.py tests/can/test_mit_drive.py "
-                  "tests/can/test_mit_can_driver.py tests/hil/test_mit_can_driver.py", 240),
+    # drivers/protocols, one target per protocol so each mutant runs only its own tests ("protocols": all)
+    "protocols-mit": (["drivers/protocols/mit.py", "drivers/protocols/mit_layout.py"],
+                      "tests/can/test_mit_layout.py tests/can/test_mit_codec.py tests/can/test_mit_drive.py "
+                      "tests/can/test_mit_can_driver.py", 240),
+    "protocols-cia402": (["drivers/protocols/cia402.py", "drivers/protocols/cia402_layout.py"],
+                         "tests/can/test_cia402_layout.py tests/can/test_cia402_protocol.py "
+                         "tests/can/test_cia402_driver.py", 240),
+    "protocols-leg": (["drivers/protocols/leg_board.py"], "tests/leg/test_codec.py tests/leg/test_serial_board.py", 180),
     "can_joints": (["drivers/can_joints.py"], "tests/can/test_mit_can_driver.py tests/hil/test_mit_can_driver.py "
                    "tests/hil/test_can_config.py", 240),
     "urdf": (["rtctl/model/urdf.py"], "tests/model/test_urdf.py", 180),
     "control": (["rtctl/control"], "tests/control", 600),
 }
+GROUPS = {"all": list(TARGETS), "protocols": [t for t in TARGETS if t.startswith("protocols-")]}
 
 _BOUNDARY = {("Lt", "LtE"), ("LtE", "Lt"), ("Gt", "GtE"), ("GtE", "Gt"), ("Eq", "NotEq"), ("NotEq", "Eq"),
              ("Lt", "GtE"), ("GtE", "Lt"), ("Gt", "LtE"), ("LtE", "Gt"), ("Is", "IsNot"), ("IsNot", "Is")}
@@ -148,18 +156,18 @@ def report(name: str, tree: Path, db: Path) -> dict:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("target", choices=[*TARGETS, "all"])
+    p.add_argument("target", choices=[*TARGETS, *GROUPS])
     p.add_argument("--sample", type=int, default=None, help="evaluate this many mutants per target (default: all)")
     p.add_argument("--workdir", type=Path, default=None, help="where the copies go (default: a new temp dir)")
     p.add_argument("--rev", default="HEAD", help="the commit to test (default: HEAD)")
     args = p.parse_args(argv)
     workdir = args.workdir or Path(tempfile.mkdtemp(prefix="rtctl-mutation-"))
-    names = list(TARGETS) if args.target == "all" else [args.target]
+    names = GROUPS.get(args.target, [args.target])
     results = [run_target(n, workdir, args.sample, args.rev) for n in names]
-    print(f"\n{'target':<12} {'mutants':>8} {'killed':>7} {'t/o':>5} {'survived':>9} {'rate':>7}")
+    print(f"\n{'target':<18} {'mutants':>8} {'killed':>7} {'t/o':>5} {'survived':>9} {'rate':>7}")
     for r in results:
         rate = "" if r["survival_rate"] is None else f"{100 * r['survival_rate']:.1f} %"
-        print(f"{r['target']:<12} {r['mutants']:>8} {r['killed']:>7} {r['timeouts_or_crashes']:>5} "
+        print(f"{r['target']:<18} {r['mutants']:>8} {r['killed']:>7} {r['timeouts_or_crashes']:>5} "
               f"{r['survived']:>9} {rate:>7}")
     return 0
 

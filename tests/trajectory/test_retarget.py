@@ -6,7 +6,7 @@ from hypothesis import given, settings, strategies as st
 
 from rtctl.errors import TrajectoryError
 from rtctl.trajectory import JointLimits, JointTrajectory, point_to_point, retarget, through_waypoints
-from rtctl.trajectory.quintic import shortest_duration
+from rtctl.trajectory.quintic import coefficients, fits, shortest_duration
 
 from trajectory_checks import assert_continuous, assert_within
 
@@ -75,6 +75,24 @@ def test_retarget_brakes_first_when_no_single_quintic_fits():
     np.testing.assert_allclose(new.state_at(new.t_end)[0], [2.0, 0.0], atol=1e-12)
     assert_within(new, lim)
     assert_continuous(new)
+
+
+def test_a_long_requested_duration_from_motion_brakes_first_and_arrives_on_time(limits3):
+    # mid-motion, one quintic stretched over 30 s swings far past the joint range; the move
+    # brakes first and then takes the rest of the 30 s from rest
+    old = point_to_point([0.0, 0.0, 0.0], [2.0, -1.5, 1.0], limits3)
+    t = old.t_start + 0.5 * old.duration
+    q, v, a = old.state_at(t)
+    target = [[0.5, 0.5, 0.5]]
+    lim = (limits3.v_max, limits3.a_max, limits3.q_min, limits3.q_max)
+    assert not fits(coefficients(q, v, a, np.array(target[0]), 0.0, 0.0, 30.0), 30.0, *lim)
+    new = retarget(t, q, v, a, target, limits3, duration=30.0)
+    assert len(new.knots) == 3
+    assert new.t_end == pytest.approx(t + 30.0, abs=1e-12)
+    np.testing.assert_allclose(new.state_at(new.knots[1])[1], 0.0, atol=1e-12)
+    np.testing.assert_allclose(new.state_at(new.t_end)[0], target[0], atol=1e-12)
+    assert_within(new, limits3)
+    assert_continuous(_spliced(old, new))
 
 
 def test_retarget_refusals(limits3):

@@ -1,0 +1,110 @@
+"""The CiA 402 drive layout of a [[devices]] table (drivers.protocols.cia402_layout): node ids,
+the drives' scaling, mounting and EDS, and the refusals naming the key."""
+import math
+import shutil
+
+import pytest
+
+from drivers.protocols import cia402 as c
+from drivers.protocols.cia402_layout import Cia402Joint, read_cia402_joints, read_eds
+from rtctl.errors import ConfigError
+from rtctl.tomltable import Table
+
+NAMES = ["waist", "shoulder", "elbow"]
+
+
+def device(file="run.toml", **options):
+    return Table(options, file, "devices[0]")
+
+
+def read(names=NAMES, **options):
+    return read_cia402_joints(device(**options), names)
+
+
+def refused(key, match, names=NAMES, **options):
+    with pytest.raises(ConfigError, match=match) as e:
+        read(names, **options)
+    assert e.value.key_path == key
+
+
+def test_defaults_number_the_nodes_from_one_at_2_to_the_20_counts():
+    joints = read(rated_torque=40.0)
+    assert [(j.name, j.node_id, j.rated_torque, j.counts_per_rev, j.direction, j.offset) for j in joints] == [
+        (n, k + 1, 40.0, 1 << 20, 1.0, 0.0) for k, n in enumerate(NAMES)]
+
+
+def test_a_drive_table_overrides_the_scale_and_sets_the_mounting():
+    waist, shoulder, elbow = read(
+        ids=[1, 127, 64], rated_torque=40.0, counts_per_rev=4096,
+        drives={"shoulder": {"rated_torque": 90.0, "direction": -1, "offset": 0.5},
+                "elbow": {"counts_per_rev": 2**31 - 1, "direction": 1}})
+    assert [j.node_id for j in (waist, shoulder, elbow)] == [1, 127, 64]
+    assert (waist.rated_torque, waist.counts_per_rev, waist.direction, waist.offset) == (40.0, 4096, 1.0, 0.0)
+    assert (shoulder.rated_torque, shoulder.counts_per_rev, shoulder.direction, shoulder.offset) == (90.0, 4096, -1.0, 0.5)
+    assert (elbow.rated_torque, elbow.counts_per_rev, elbow.direction, elbow.offset) == (40.0, 2**31 - 1, 1.0, 0.0)
+
+
+def test_the_rated_torque_is_whole_milli_newton_metres():
+    # 0x6076 counts mN·m: what the driver writes and checks is the configured value rounded
+    (j,) = read(["a"], rated_torque=12.3456)
+    assert j.rated_torque == 12.346 and j.rated_torque_mnm == 12346
+    (j,) = read(["a"], rated_torque=0.001)
+    assert j.rated_torque_mnm == 1
+    assert read(["a"], rated_torque=4_000_000.0)[0].rated_torque_mnm == 4_000_000_000
+    for bad in (0.0, -1.0, 0.0004, 4_000_001.0):
+        refused("devices[0].rated_torque", None, ["a"], rated_torque=bad)
+
+
+def test_one_revolution_is_counts_per_rev_increments():
+    j = Cia402Joint("a", 1, 1.0, 1 << 20)
+    assert j.counts_per_rad * 2 * math.pi == pytest.approx(1 << 20, rel=1e-12)
+    assert [read(["a"], rated_torque=1.0, counts_per_rev=n)[0].counts_per_rev for n in (1, 2**31 - 1)] == [1, 2**31 - 1]
+    for bad in (0, 2**31, 1.5):
+        refused("devices[0].counts_per_rev", None, ["a"], rated_torque=1.0, counts_per_rev=bad)
+
+
+@pytest.mark.parametrize(("ids", "match"), [
+    ([1, 2], "an array of 3 node ids"), ([1, 2, 3, 4], "an array of 3"), ([1, 2, True], "an array of 3"),
+    ([1, 2, 3.0], "an array of 3"), (3, "an array of 3"),
+    ([1, 2, 2], "distinct"), ([0, 1, 2], "1…127"), ([1, 2, 128], "1…127"),
+])
+def test_node_ids_are_refused_naming_the_key(ids, match):
+    refused("devices[0].ids", match, ids=ids, rated_torque=1.0)
+
+
+def test_a_missing_rated_torque_is_named_where_it_belongs():
+    refused("devices[0].rated_torque", "'waist'", drives={})
+    refused("devices[0].drives.shoulder.rated_torque", "'shoulder'",
+            drives={"waist": {"rated_torque": 1.0}, "shoulder": {"direction": -1}})
+    joints = read(drives={n: {"rated_torque": k + 1.0} for k, n in enumerate(NAMES)})
+    assert [(j.rated_torque, j.direction, j.offset) for j in joints] == [(1.0, 1.0, 0.0), (2.0, 1.0, 0.0), (3.0, 1.0, 0.0)]
+
+
+@pytest.mark.parametrize("direction", [0, 2, -2])
+def test_a_mounting_direction_is_plus_or_minus_one(direction):
+    refused("devices[0].drives.waist.direction", r"1 or -1|[≤≥]", rated_torque=1.0,
+            drives={"waist": {"direction": direction}})
+
+
+def test_unknown_keys_and_joints_in_the_drive_tables_are_refused():
+    refused("devices[0].drives.waist.kp", "unknown key", rated_torque=1.0, drives={"waist": {"kp": 3.0}})
+    refused("devices[0].drives.wrist", "unknown key", rated_torque=1.0, drives={"wrist": {"direction": -1}})
+
+
+def test_the_eds_is_the_shipped_one_or_a_file_next_to_the_configuration(tmp_path):
+    path, layout = read_eds(device())
+    assert path == c.EDS and layout.frame_lengths == (4, 8, 4)
+    (tmp_path / "drives").mkdir()
+    own = tmp_path / "drives" / "x.eds"
+    shutil.copy(c.EDS, own)
+    path, layout = read_eds(device(tmp_path / "run.toml", eds="drives/x.eds"))
+    assert path == own.resolve() and [p.fields for p in layout.tpdos] == [("statusword", "position", "torque"),
+                                                                          ("velocity",)]
+
+
+def test_a_missing_or_unusable_eds_is_refused(tmp_path):
+    for name, match in (("no/such.eds", "no such file"), ("bad.eds", "CST set")):
+        (tmp_path / "bad.eds").write_text(c.EDS.read_text().replace("DefaultValue=0x606C0020", "DefaultValue=0x60610008"))
+        with pytest.raises(ConfigError, match=match) as e:
+            read_eds(device(tmp_path / "run.toml", eds=name))
+        assert e.value.key_path == "devices[0].eds"
