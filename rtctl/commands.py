@@ -15,7 +15,10 @@ SHIPPED_PUMA = Path(__file__).resolve().parent.parent / "configs" / "robots" / "
 def print_model(args) -> int:
     from rtctl.model import dynamics, kinematics, load_robot
 
+    from rtctl.guard.config import load_guard
+
     model = load_robot(args.robot)
+    guard = load_guard(None, Path(args.robot), model)  # the file's interference zones, checked as a run would
     q = np.zeros(model.nq) if args.q is None else np.array(args.q, dtype=float)
     if q.shape != (model.nq,):
         from rtctl.errors import ConfigError
@@ -27,6 +30,9 @@ def print_model(args) -> int:
         kind = "revolute" if model.joint_types[i] == 0 else "prismatic"
         print(f"  {i + 1}. {name:<12} {kind:<9} limits [{model.q_min[i]:+.3f}, {model.q_max[i]:+.3f}]  "
               f"mass {model.params[i, 0]:.3f} kg")
+    if guard is not None:
+        print(f"interference zones ({np.degrees(guard.scene.margin):.3g}° margin): "
+              + ", ".join(z.name for z in guard.scene.zones))
     print(f"q = {q}")
     print("tool pose F = ⁰Tₙ · tool:")
     print(kinematics.fk(model, q))

@@ -99,3 +99,16 @@ def test_fuzz_urdf(robot, tmp_path):
             assert str(target) in err or "<" in err, (name, err)  # names the file or the element
 
     case()
+
+
+def test_rtctl_model_checks_the_robot_files_interference_zones(tmp_path):
+    """Found by the fuzzer: a zone's coordinate given as a string passed `rtctl model` (the
+    zones were read only by a run)."""
+    doc = tomllib.loads((ROOT / "configs" / "robots" / "puma560.toml").read_text())
+    doc["guard"]["zones"][0]["polygon"][0][0] = ""
+    target = tmp_path / "robot.toml"
+    target.write_text(tomli_w.dumps(doc))
+    code, out, err = rtctl_in_process("model", target)
+    assert code == 2 and "guard.zones[0].polygon" in err, err
+    code, out, err = rtctl_in_process("model", ROOT / "configs" / "robots" / "puma560.toml")
+    assert code == 0 and "wrist_vs_floor_front" in out, err
