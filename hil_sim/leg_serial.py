@@ -13,25 +13,25 @@ One thread blocks in ``select()``; nothing polls.
 """
 from __future__ import annotations
 
-import os
-import select
 import time
 
 from drivers.protocols import leg_board as proto
 from hil_sim.leg_plant import LegPlant
-from hil_sim.pty import PtyEndpoint
+from hil_sim.pty import Pty
+from hil_sim.select_server import SelectServer
 
 _MAX_QUEUED = 65536
 
 
-class LegBoardServer(PtyEndpoint):
+class LegBoardServer(SelectServer):
     def __init__(self, plant: LegPlant, period: float, realtime_factor: float = 0.0, watchdog_s: float = 0.05,
                  emit=print, clock=time.monotonic):
-        super().__init__()
+        super().__init__(clock)
         self.plant, self.period, self.factor = plant, period, realtime_factor
-        self.watchdog_s, self.emit, self.clock = watchdog_s, emit, clock
+        self.watchdog_s, self.emit = watchdog_s, emit
+        self.pty = Pty()
+        self.path = self.pty.path
         self.decoder = proto.Decoder(proto.COMMAND)
-        self._out = bytearray()
         self._seq = 0
         self.locked = False  # by the watchdog
         self.silent = False
@@ -42,34 +42,28 @@ class LegBoardServer(PtyEndpoint):
         self._next_free = None
 
     # -- serving ----------------------------------------------------------------------------
-    def serve_forever(self) -> None:
-        try:
-            while not self._stop:
-                timeout = self._timeout()
-                pending = [self._master] if self._out else []
-                readable, _, _ = select.select([self._master, self._wake_r], pending, [], timeout)
-                now = self.clock()
-                if self._wake_r in readable:
-                    self._wake_r.recv(64)
-                if self._master in readable:
-                    try:
-                        data = os.read(self._master, 4096)
-                    except (BlockingIOError, OSError):
-                        data = b""
-                    if data:
-                        self._commands(self.decoder.feed(data), now)
-                self._watchdog(now)
-                if self.factor > 0:
-                    self._free_run(now)
-                self._flush()
-        finally:
-            self.close()
+    def close(self) -> None:
+        self.pty.close()
+        super().close()
 
-    def _timeout(self):
+    def _files(self) -> tuple[list, list]:
+        return self.pty.files()
+
+    def _ready(self, readable: list, now: float) -> None:
+        if self.pty.fd in readable and (data := self.pty.read()):
+            self._commands(self.decoder.feed(data), now)
+
+    def _service(self, now: float) -> None:
+        self._watchdog(now)
+        if self.factor > 0:
+            self._free_run(now)
+        self.pty.flush()
+
+    def _next_deadline(self) -> float | None:
         t = [] if self.last_command is None or self.locked else [self.last_command + self.watchdog_s]
         if self.factor > 0 and self._next_free is not None:
             t.append(self._next_free)
-        return max(0.0, min(t) - self.clock()) if t else None
+        return min(t) if t else None
 
     def _commands(self, count: int, now: float) -> None:
         for _ in range(count):
@@ -109,10 +103,10 @@ class LegBoardServer(PtyEndpoint):
         if self.silent:
             return
         status = (int(self.plant.actions[0]) << 2 | int(self.plant.actions[1])) | (proto.WATCHDOG if self.locked else 0)
-        if len(self._out) > _MAX_QUEUED:
+        if len(self.pty.out) > _MAX_QUEUED:
             self.counters["overflows"] += 1
             return
-        self._out += proto.encode_sensor(self._seq, status, self.plant.channels)
+        self.pty.out += proto.encode_sensor(self._seq, status, self.plant.channels)
         self._seq = (self._seq + 1) & 0xFF
         self.counters["replies"] += 1
 
@@ -126,14 +120,6 @@ class LegBoardServer(PtyEndpoint):
                 self.silent = True
             elif f.kind == "drop":
                 self._stop = True
-
-    def _flush(self) -> None:
-        while self._out:
-            try:
-                n = os.write(self._master, self._out)
-            except (BlockingIOError, OSError):
-                return
-            del self._out[:n]
 
     def summary(self) -> dict:
         return {"event": "exit", "commands": self.commands, "plant_time": self.plant.time, "locked": self.locked,

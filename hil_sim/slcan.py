@@ -22,26 +22,26 @@ One thread blocks in ``select()`` on the pty master; nothing polls. Run standalo
 from __future__ import annotations
 
 import argparse
-import os
-import select
 import time
 
 from hil_sim.mit_drive import MitDriveBus, add_stand_in_arguments, announce, stand_in_bus_from_args
-from hil_sim.pty import PtyEndpoint
+from hil_sim.pty import Pty
+from hil_sim.select_server import DriveBusServer
 
 OK, BELL = b"\r", b"\a"
 _MAX_LINE = 64  # longest legal command is ~27 characters
 _MAX_QUEUED = 65536  # bytes waiting for the host before new frames are dropped
 
 
-class SlcanAdapter(PtyEndpoint):
+class SlcanAdapter(DriveBusServer):
     """Serves one ``MitDriveBus`` on a new pty; ``path`` is the device python-can opens."""
 
     def __init__(self, bus: MitDriveBus, ack_transmit: bool = True, clock=time.monotonic):
-        super().__init__()
-        self.bus, self.ack_transmit, self.clock = bus, ack_transmit, clock
+        super().__init__([bus], clock)
+        self.bus, self.ack_transmit = bus, ack_transmit
+        self.pty = Pty()
+        self.path = self.pty.path
         self._line = bytearray()
-        self._out = bytearray()
         self.is_open = False
         self.listen_only = False
         self.counters = {"frames_in": 0, "frames_out": 0, "errors": 0, "overflows": 0}
@@ -49,29 +49,20 @@ class SlcanAdapter(PtyEndpoint):
     def info(self) -> dict:
         return {"transport": "slcan", "tty": self.path, "channels": [self.bus.name]}
 
-    def serve_forever(self) -> None:
-        out: list = []
-        try:
-            while not self._stop:
-                deadline = self.bus.next_deadline()
-                timeout = max(0.0, deadline - self.clock()) if deadline is not None else None
-                pending = [self._master] if self._out else []
-                readable, _, _ = select.select([self._master, self._wake_r], pending, [], timeout)
-                now = self.clock()
-                if self._wake_r in readable:
-                    self._wake_r.recv(64)
-                if self._master in readable:
-                    try:
-                        data = os.read(self._master, 4096)
-                    except BlockingIOError:
-                        data = b""
-                    self._feed(data, now, out)
-                if self.bus.wants_service(now):
-                    self.bus.service(now, out)
-                    self._frames_to_host(out)
-                self._flush()
-        finally:
-            self.close()
+    def close(self) -> None:
+        self.pty.close()
+        super().close()
+
+    def _files(self) -> tuple[list, list]:
+        return self.pty.files()
+
+    def _ready(self, readable: list, now: float) -> None:
+        if self.pty.fd in readable:
+            self._feed(self.pty.read(), now, self._frames_due)
+
+    def _service(self, now: float) -> None:
+        super()._service(now)
+        self.pty.flush()
 
     # -- host → adapter -------------------------------------------------------------------
     def _feed(self, data: bytes, now: float, out: list) -> None:
@@ -79,8 +70,8 @@ class SlcanAdapter(PtyEndpoint):
         while (end := self._line.find(b"\r")) >= 0:
             command = bytes(self._line[:end])
             del self._line[: end + 1]
-            self._out += self._command(command, now, out)
-            self._frames_to_host(out)  # the drives' replies follow the transmit ack
+            self.pty.out += self._command(command, now, out)
+            self._frames_out(self.bus, out)  # the drives' replies follow the transmit ack
         if len(self._line) > _MAX_LINE:
             self._line.clear()
             self._error()
@@ -139,27 +130,18 @@ class SlcanAdapter(PtyEndpoint):
         return BELL
 
     # -- adapter → host -------------------------------------------------------------------
-    def _frames_to_host(self, frames: list) -> None:
+    def _frames_out(self, bus: MitDriveBus, frames: list) -> None:
         """Queue frames for the host; when the host stops reading and the queue is full, new
         frames are dropped whole (a real adapter's buffer overflows the same way) rather than
         block the drives or cut a line in two."""
         if self.is_open:
             for arbitration_id, payload in frames:
-                if len(self._out) > _MAX_QUEUED:
+                if len(self.pty.out) > _MAX_QUEUED:
                     self.counters["overflows"] += 1
                     continue
-                self._out += b"t%03X%d%s\r" % (arbitration_id, len(payload), payload.hex().upper().encode())
+                self.pty.out += b"t%03X%d%s\r" % (arbitration_id, len(payload), payload.hex().upper().encode())
                 self.counters["frames_out"] += 1
         frames.clear()
-
-    def _flush(self) -> None:
-        """Write what the pty takes now; the rest waits for select() to say it is writable."""
-        while self._out:
-            try:
-                n = os.write(self._master, self._out)
-            except BlockingIOError:
-                return
-            del self._out[:n]
 
 
 def serve_slcan(bus: MitDriveBus, ready_callback=None, ack_transmit: bool = True) -> SlcanAdapter:

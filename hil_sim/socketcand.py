@@ -18,12 +18,12 @@ SIGTERM/SIGINT.
 from __future__ import annotations
 
 import argparse
-import select
 import socket
 import time
 from dataclasses import dataclass, field
 
 from hil_sim.mit_drive import MitDriveBus, add_stand_in_arguments, announce, stand_in_bus_from_args
+from hil_sim.select_server import DriveBusServer
 
 _MAX_PENDING = 4096  # bytes without a closing '>' before a client's input is discarded
 
@@ -36,18 +36,16 @@ class _Client:
     buf: bytearray = field(default_factory=bytearray)
 
 
-class SocketcandServer:
+class SocketcandServer(DriveBusServer):
     """Serves ``buses`` (MitDriveBus, one per channel name) on ``host:port`` (0 → a free port)."""
 
     def __init__(self, buses, host: str = "127.0.0.1", port: int = 0, clock=time.monotonic):
         buses = [buses] if isinstance(buses, MitDriveBus) else list(buses)
+        super().__init__(buses, clock)
         self.buses = {b.name: b for b in buses}
-        self.clock = clock
         self._listen = socket.create_server((host, port))
         self._listen.setblocking(False)
-        self._wake_r, self._wake_w = socket.socketpair()  # a closed socket object never writes to a reused fd
         self._clients: dict[socket.socket, _Client] = {}
-        self._stop = False
         self._drop_all = False
         self.counters = {"connections": 0, "frames_in": 0, "frames_out": 0, "syntax_errors": 0}
 
@@ -59,46 +57,6 @@ class SocketcandServer:
         host, port = self.address
         return {"transport": "socketcand", "host": host, "port": port, "channels": sorted(self.buses)}
 
-    # -- loop -----------------------------------------------------------------------------
-    def serve_forever(self) -> None:
-        """Serve until :meth:`shutdown`; blocks in select() until a frame, a connection or the
-        next watchdog/delayed-reply deadline."""
-        out: list = []
-        try:
-            while not self._stop:
-                deadlines = [d for b in self.buses.values() if (d := b.next_deadline()) is not None]
-                timeout = max(0.0, min(deadlines) - self.clock()) if deadlines else None
-                readable, _, _ = select.select([self._listen, self._wake_r, *self._clients], [], [], timeout)
-                now = self.clock()
-                for s in readable:
-                    if s is self._listen:
-                        self._accept()
-                    elif s is self._wake_r:
-                        self._wake_r.recv(64)
-                        if self._drop_all:
-                            self._drop_all = False
-                            for c in list(self._clients.values()):
-                                self._drop(c)
-                    elif s in self._clients:  # (a client dropped earlier in this round is gone)
-                        self._read(self._clients[s], now)
-                for bus in self.buses.values():  # plant, watchdogs, delayed replies
-                    if bus.wants_service(now):
-                        bus.service(now, out)
-                        self._broadcast(bus, out, None)
-        finally:
-            self.close()
-
-    def _wake(self) -> None:
-        try:
-            self._wake_w.send(b"x")
-        except OSError:  # already closed: the loop has ended
-            pass
-
-    def shutdown(self) -> None:
-        """Make :meth:`serve_forever` return (thread- and signal-safe)."""
-        self._stop = True
-        self._wake()
-
     def drop_connections(self) -> None:
         """Fault injection: close every client connection (thread-safe); the listener stays,
         so clients may reconnect."""
@@ -109,8 +67,27 @@ class SocketcandServer:
         for c in list(self._clients.values()):
             self._drop(c)
         self._listen.close()
-        self._wake_r.close()
-        self._wake_w.close()
+        super().close()
+
+    # -- loop -----------------------------------------------------------------------------
+    def _files(self) -> tuple[list, list]:
+        return [self._listen, *self._clients], []
+
+    def _woken(self) -> None:
+        if self._drop_all:
+            self._drop_all = False
+            for c in list(self._clients.values()):
+                self._drop(c)
+
+    def _ready(self, readable: list, now: float) -> None:
+        for s in readable:
+            if s is self._listen:
+                self._accept()
+            elif s in self._clients:  # (a client dropped earlier in this round is gone)
+                self._read(self._clients[s], now)
+
+    def _frames_out(self, bus: MitDriveBus, frames: list) -> None:
+        self._broadcast(bus, frames, None)
 
     # -- connections ----------------------------------------------------------------------
     def _accept(self) -> None:
