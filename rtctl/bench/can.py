@@ -1,15 +1,19 @@
-"""``rtctl bench can``: the MIT codec's frames per second, and the command/reply cycle of a
-joint group over each CAN transport, as the CAN driver would run it every tick.
+"""``rtctl bench can``: the MIT codec's frames per second, and the CAN driver's tick — the
+time ``MitCanJointGroup.write()`` takes (send one command per joint, collect every reply) —
+over each CAN transport.
 
 * codec: ``pack_command_into`` (one command into a reused buffer), ``unpack_reply_into``
   (one reply into a preallocated row), and the two together;
-* cycle: send one command per joint, wait for every reply; over ``virtual`` in lock-step in
-  this process (the embedded simulator's path), and over ``socketcand`` (6 joints) and
-  ``slcan`` (3 joints: python-can reads slcan one byte per call) with the drives in their own
-  process (``python -m hil_sim.socketcand|slcan``), as in HIL. Paced at ``rate_hz`` with
-  absolute deadlines; a cycle longer than the period is a miss.
+* driver: ``drivers.can_joints.MitCanJointGroup`` configured and activated as a run would,
+  then ``read()`` and ``write()`` every cycle, timing ``write()`` (``read()`` does no I/O);
+  over ``virtual`` in lock-step in this process (the embedded simulator's path: the drives
+  answer right after the send), and over ``socketcand`` (6 joints) and ``slcan`` (3 joints:
+  python-can reads slcan one byte per call) with the drives in their own process
+  (``python -m hil_sim.socketcand|slcan``), as in HIL. Paced at ``rate_hz`` with absolute
+  deadlines; a ``write()`` longer than the period is a miss, one that ended at the driver's
+  reply deadline with replies missing is lost.
 
-Goals: socketcand 6-joint cycle median ≤ 0.35 ms, p99 ≤ 0.7 ms;
+Goals: socketcand 6-joint write() median ≤ 0.35 ms, p99 ≤ 0.7 ms;
 slcan 3 joints at 1 kHz without misses.
 
 The drivers and the simulator are imported inside the functions: ``rtctl`` itself never
@@ -53,93 +57,91 @@ def bench_codec(frames: int = 50_000) -> dict:
             "pack_unpack_pairs_per_s": frames / (t3 - t2)}
 
 
-class _Cycle:
-    """The master side: preallocated messages, replies decoded into a preallocated array."""
-
-    def __init__(self, bus, ids):
-        import can
-        from drivers.protocols import mit
-
-        self.mit, self.bus, self.model = mit, bus, mit.KATZ
-        self.messages = [can.Message(arbitration_id=i, data=bytearray(8), is_extended_id=False) for i in ids]
-        self.rows = {i: k for k, i in enumerate(ids)}
-        self.state = np.zeros((len(ids), mit.REPLY_COLUMNS))
-
-    def enter(self, after_send=None) -> None:
-        for m in self.messages:
-            m.data[:] = self.mit.special_frame(self.mit.Special.ENTER_MOTOR_MODE)
-        if not self.run(0, timeout=2.0, after_send=after_send):
-            raise RuntimeError("the drives did not answer ENTER_MOTOR_MODE")
-
-    def run(self, k, timeout=0.1, after_send=None, spin=False) -> bool:
-        """One cycle; ``spin`` polls ``recv(0)`` instead of blocking in ``recv(timeout)``, as a
-        loop that spins to its deadline would (on a VM a halted vCPU wakes up slowly)."""
-        mit = self.mit
-        for row, m in enumerate(self.messages):
-            if k:
-                mit.pack_command_into(m.data, self.model, 0.1 * row, 0.0, 10.0, 0.5, 0.0)
-            self.bus.send(m)
-        if after_send is not None:
-            after_send()
-        got, deadline = 0, time.perf_counter() + timeout
-        while got < len(self.messages):
-            msg = self.bus.recv(0.0 if spin else max(0.0, deadline - time.perf_counter()))
-            if msg is None:
-                if spin and time.perf_counter() < deadline:
-                    continue
-                return False
-            row = self.rows.get(mit.reply_drive_id(msg.data, self.model))
-            if row is not None:
-                mit.unpack_reply_into(msg.data, self.model, self.state, row)
-                got += 1
-        return True
-
-
-def _stats(transport, joints, times_s, misses, rate_hz, failures=0, spin=False) -> dict:
+def _stats(transport, joints, times_s, misses, rate_hz, lost) -> dict:
     ms = np.asarray(times_s) * 1e3
     return {"transport": transport, "joints": joints, "cycles": len(ms), "rate_hz": rate_hz,
-            "wait": "spin" if spin else "block",
             "median_ms": float(np.median(ms)), "p99_ms": float(np.percentile(ms, 99)),
-            "max_ms": float(ms.max()), "misses": misses, "lost": failures}
+            "max_ms": float(ms.max()), "misses": misses, "lost": lost}
 
 
-def _paced(cycle: _Cycle, cycles: int, rate_hz: float | None, after_send=None, spin=False):
-    """Run ``cycles`` cycles, paced at ``rate_hz`` with absolute deadlines (None: back to back);
-    a cycle longer than the period is a miss, one without all replies within 0.1 s is lost."""
+def _driver(bus_kwargs: dict, joints: int, rate_hz: float | None, cls=None, **kw):
+    """A MitCanJointGroup of ``joints`` KATZ drives (ids 1…n) on ``can.Bus(**bus_kwargs)``,
+    with the driver's default timing at ``rate_hz`` (None: 1 kHz's)."""
+    from drivers.can_bus import BusOptions
+    from drivers.can_joints import MitCanJointGroup
+    from drivers.protocols.mit import KATZ
+    from drivers.protocols.mit_layout import MitJoint
+
+    channel = str(bus_kwargs["channel"])
+    options = BusOptions(bus_kwargs, 1_000_000, True,
+                         (bus_kwargs["interface"], channel, bus_kwargs.get("host"), bus_kwargs.get("port")), channel)
+    group = [MitJoint(f"j{i}", i, KATZ) for i in range(1, joints + 1)]
+    return (cls or MitCanJointGroup)("bench", group, options, period=1.0 / (rate_hz or 1000.0), **kw)
+
+
+def _paced(driver, cycles: int, rate_hz: float | None):
+    """Configure and activate ``driver``, run ``cycles`` ticks of ``read()`` + ``write()``
+    (impedance commands) paced at ``rate_hz`` with absolute deadlines (None: back to back),
+    timing ``write()``; then deactivate and close it. Returns (times, misses, lost)."""
+    from rtctl.hal import CommandMode, Status
+
     period = 1.0 / rate_hz if rate_hz else 0.0
     times, misses, lost = [], 0, 0
     clock = time.perf_counter
-    deadline = clock()
-    for k in range(1, cycles + 1):
-        t0 = clock()
-        ok = cycle.run(k, after_send=after_send, spin=spin)
-        dt = clock() - t0
-        lost += not ok
-        times.append(dt)
-        if period:
-            misses += dt > period or not ok
-            deadline += period
-            if deadline < clock():
-                deadline = clock()  # skip, never catch up
-            time.sleep(max(0.0, deadline - clock()))
+    driver.configure()
+    try:
+        driver.activate()
+        c = driver.command
+        c.mode = CommandMode.IMPEDANCE
+        c.q_des[:] = 0.1 * np.arange(driver.n)
+        c.qd_des[:], c.kp[:], c.kd[:], c.tau_ff[:] = 0.0, 10.0, 0.5, 0.0
+        start = deadline = clock()
+        for _ in range(cycles):
+            missing = driver.counters["missing_replies"]
+            driver.read(clock() - start)
+            t0 = clock()
+            status = driver.write(t0 - start)
+            dt = clock() - t0
+            if status is Status.ERROR:
+                raise RuntimeError(f"the driver lost its bus: {driver.last_error}")
+            times.append(dt)
+            late = driver.counters["missing_replies"] > missing
+            lost += late
+            if period:
+                misses += dt > period or late
+                deadline += period
+                if deadline < clock():
+                    deadline = clock()  # skip, never catch up
+                time.sleep(max(0.0, deadline - clock()))
+        driver.deactivate()
+    finally:
+        driver.close()
     return times, misses, lost
 
 
 def bench_virtual(joints: int = 6, cycles: int = 3000) -> dict:
     import can
+    from drivers.can_joints import MitCanJointGroup
     from hil_sim.mit_drive import pump, stand_in_bus
 
-    channel = f"bench-{uuid.uuid4()}"
-    master, peer = can.Bus(interface="virtual", channel=channel), can.Bus(interface="virtual", channel=channel)
+    class LockStep(MitCanJointGroup):
+        """The drives answer on the far end of the virtual bus right after each send (the
+        lock-step simulator's turn in the tick)."""
+
+        def _on_configure(self):
+            self.peer = can.Bus(interface="virtual", channel=self.bus_options.kwargs["channel"])
+            super()._on_configure()
+
+        def _after_send(self):
+            pump(drives, self.peer)
+
+        def _on_close(self):
+            super()._on_close()
+            self.peer.shutdown()
+
     drives = stand_in_bus(range(1, joints + 1), timeout_s=10.0)
-    try:
-        cycle = _Cycle(master, list(range(1, joints + 1)))
-        step = lambda: pump(drives, peer)  # noqa: E731 — the lock-step simulator's turn in the tick
-        cycle.enter(after_send=step)
-        times, misses, lost = _paced(cycle, cycles, None, after_send=step)
-    finally:
-        master.shutdown()
-        peer.shutdown()
+    driver = _driver({"interface": "virtual", "channel": f"bench-{uuid.uuid4()}"}, joints, None, LockStep)
+    times, misses, lost = _paced(driver, cycles, None)
     return _stats("virtual (lock-step, in-process)", joints, times, misses, None, lost)
 
 
@@ -172,52 +174,33 @@ def _stop(proc: subprocess.Popen) -> None:
         proc.wait()
 
 
-def bench_socketcand(joints: int = 6, cycles: int = 3000, rate_hz: float = 1000.0, spin: bool = False) -> dict:
-    import can
-
-    ids = list(range(1, joints + 1))
-    proc, info = _start_server("hil_sim.socketcand", ids)
+def bench_socketcand(joints: int = 6, cycles: int = 3000, rate_hz: float = 1000.0) -> dict:
+    proc, info = _start_server("hil_sim.socketcand", range(1, joints + 1))
     try:
-        bus = can.Bus(interface="socketcand", host=info["host"], port=info["port"], channel=info["channels"][0],
-                      tcp_tune=True)
-        try:
-            cycle = _Cycle(bus, ids)
-            cycle.enter()
-            times, misses, lost = _paced(cycle, cycles, rate_hz, spin=spin)
-        finally:
-            bus.shutdown()
+        driver = _driver({"interface": "socketcand", "host": info["host"], "port": info["port"],
+                          "channel": info["channels"][0], "tcp_tune": True}, joints, rate_hz)
+        times, misses, lost = _paced(driver, cycles, rate_hz)
     finally:
         _stop(proc)
-    return _stats("socketcand (drives in another process)", joints, times, misses, rate_hz, lost, spin)
+    return _stats("socketcand (drives in another process)", joints, times, misses, rate_hz, lost)
 
 
-def bench_slcan(joints: int = 3, cycles: int = 3000, rate_hz: float = 1000.0, spin: bool = False) -> dict:
-    import can
-
-    ids = list(range(1, joints + 1))
-    proc, info = _start_server("hil_sim.slcan", ids)
+def bench_slcan(joints: int = 3, cycles: int = 3000, rate_hz: float = 1000.0) -> dict:
+    proc, info = _start_server("hil_sim.slcan", range(1, joints + 1))
     try:
-        bus = can.Bus(interface="slcan", channel=info["tty"], sleep_after_open=0, bitrate=1_000_000)
-        try:
-            cycle = _Cycle(bus, ids)
-            cycle.enter()
-            times, misses, lost = _paced(cycle, cycles, rate_hz, spin=spin)
-        finally:
-            bus.shutdown()
+        driver = _driver({"interface": "slcan", "channel": info["tty"], "sleep_after_open": 0, "bitrate": 1_000_000},
+                         joints, rate_hz)
+        times, misses, lost = _paced(driver, cycles, rate_hz)
     finally:
         _stop(proc)
-    return _stats("slcan (drives in another process, pty)", joints, times, misses, rate_hz, lost, spin)
+    return _stats("slcan (drives in another process, pty)", joints, times, misses, rate_hz, lost)
 
 
 def bench_can(cycles: int = 3000, rate_hz: float = 1000.0) -> dict:
     """Everything above; returns a JSON-able dict (see :func:`format_table`)."""
     return {
         "codec": bench_codec(),
-        "cycles": [
-            bench_virtual(6, cycles),
-            *(bench_socketcand(6, cycles, rate_hz, spin) for spin in (False, True)),
-            *(bench_slcan(3, cycles, rate_hz, spin) for spin in (False, True)),
-        ],
+        "cycles": [bench_virtual(6, cycles), bench_socketcand(6, cycles, rate_hz), bench_slcan(3, cycles, rate_hz)],
         "goals": GOALS,
     }
 
@@ -229,18 +212,19 @@ def format_table(result: dict) -> str:
         f"  pack_command_into {c['pack_per_s']:>12,.0f}   unpack_reply_into {c['unpack_per_s']:>12,.0f}"
         f"   both {c['pack_unpack_pairs_per_s']:>12,.0f}",
         "",
-        f"{'command/reply cycle':<42} {'wait':>5} {'joints':>6} {'rate':>6} {'cycles':>6} {'median ms':>9} {'p99 ms':>7} "
+        "MitCanJointGroup.write() per tick (send the commands, collect every reply; read() untimed):",
+        f"{'transport':<42} {'joints':>6} {'rate':>6} {'cycles':>6} {'median ms':>9} {'p99 ms':>7} "
         f"{'max ms':>7} {'misses':>6} {'lost':>5}",
     ]
     for r in result["cycles"]:
         rate = f"{r['rate_hz']:g}" if r["rate_hz"] else "max"
         lines.append(
-            f"{r['transport']:<42} {r['wait']:>5} {r['joints']:>6} {rate:>6} {r['cycles']:>6} {r['median_ms']:>9.3f} "
+            f"{r['transport']:<42} {r['joints']:>6} {rate:>6} {r['cycles']:>6} {r['median_ms']:>9.3f} "
             f"{r['p99_ms']:>7.3f} {r['max_ms']:>7.3f} {r['misses']:>6} {r['lost']:>5}"
         )
     g = result["goals"]
     lines.append(
-        f"goals: socketcand {g['socketcand']['joints']} joints median ≤ {g['socketcand']['median_ms']} ms, "
+        f"goals: socketcand {g['socketcand']['joints']} joints write() median ≤ {g['socketcand']['median_ms']} ms, "
         f"p99 ≤ {g['socketcand']['p99_ms']} ms; slcan {g['slcan']['joints']} joints at "
         f"{g['slcan']['rate_hz']} Hz with {g['slcan']['misses']} misses"
     )
