@@ -8,7 +8,8 @@ scalars, which tally every multiplication (and division), addition (and subtract
 sin/cos they take part in. The mirror's outputs are returned as well, so a test checks them
 against the compiled kernel: the count is of the code that runs. Negations and comparisons
 are not counted; every operation of the generic code is (multiplications by the 0/1 entries of
-a joint axis included: the kernels treat any axis).
+a joint axis included: the kernels treat any axis). The expected counts, derived term by term
+from the equations, are in docs/cstar_slotine_li.md (tests/control/test_opcount.py checks them).
 """
 from __future__ import annotations
 

@@ -2,25 +2,37 @@
 
 The baseline every robot controller offers (Takegaki & Arimoto 1981): globally
 asymptotically stable for a constant target with the exact G; it lags a moving reference,
-which computed torque and the adaptive laws then improve on.
+which computed torque and the adaptive laws then improve on. One compiled call per tick
+(:func:`pd_gravity_kernel`), no allocation.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from rtctl.compiled import kernel
 from rtctl.control.base import Controller
 from rtctl.control.gains import per_joint
-from rtctl.model.dynamics import Data, gravity_into, model_arrays
+from rtctl.model.dynamics import Data, model_arrays
+from rtctl.model.rnea import rnea_kernel
+
+
+@kernel
+def pd_gravity_kernel(joint, geom, params, gravity, X, body, zero, q, qd, q_d, qd_d, kp, kd, g, tau):
+    """G(q) into ``g`` (RNEA at q̇ = q̈ = 0), then τ = G − K_P (q − q_d) − K_D (q̇ − q̇_d)."""
+    rnea_kernel(joint, geom, params, gravity, X, body, q, zero, zero, g)
+    for i in range(q.shape[0]):
+        tau[i] = g[i] + kp[i] * (q_d[i] - q[i]) + kd[i] * (qd_d[i] - qd[i])
 
 
 class PDGravity(Controller):
     def __init__(self, name, model, kp, kd, joints=None, divisor=1):
         super().__init__(name, model, joints, divisor)
-        self.kp, self.kd = np.asarray(kp, float), np.asarray(kd, float)
+        n = model.nq
+        self.kp = np.broadcast_to(np.asarray(kp, float), (n,)).copy()
+        self.kd = np.broadcast_to(np.asarray(kd, float), (n,)).copy()
         self.arrays, self.data = model_arrays(model), Data(model)
-        self.g = np.zeros(model.nq)
-        self.e = np.zeros(model.nq)
-        self.tau = np.zeros(model.nq)
+        self.g = np.zeros(n)
+        self.tau = np.zeros(n)
         self.internals = {"gravity": self.g}
 
     @classmethod
@@ -31,12 +43,7 @@ class PDGravity(Controller):
         return c
 
     def update(self, t, state, ref, command):
-        gravity_into(self.arrays, self.data, state.position, self.g)
-        tau, e = self.tau, self.e
-        np.subtract(ref.q, state.position, out=e)
-        np.multiply(e, self.kp, out=tau)
-        tau += self.g
-        np.subtract(ref.qd, state.velocity, out=e)
-        e *= self.kd
-        tau += e
-        self.emit(command.tau_ff, tau)
+        a, d = self.arrays, self.data
+        pd_gravity_kernel(a.joint, a.geom, a.params, a.gravity, d.X, d.body, d.zero, state.position,
+                          state.velocity, ref.q, ref.qd, self.kp, self.kd, self.g, self.tau)
+        self.emit(command.tau_ff, self.tau)
