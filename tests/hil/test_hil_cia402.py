@@ -105,7 +105,7 @@ def test_a_frozen_loop_lets_the_drives_disable_themselves(tmp_path, hil_sim):
 
 
 def test_a_dropped_connection_is_reopened_and_stopped_safely_within_2_s(tmp_path, hil_sim):
-    config = variant(tmp_path, CONFIG, **NO_OVERRUN_STOP)
+    config = variant(tmp_path, CONFIG, **STALL_TOLERANT)  # (a stall must not stop it before the drop)
     sim = hil_sim(config, "--port", 0, "--fault", "drop@500")
     code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=4.0)
     sim_exit = sim.stop()
