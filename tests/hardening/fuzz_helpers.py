@@ -42,6 +42,15 @@ def key_name(path) -> str:
     return out
 
 
+def acceptable_names(path) -> tuple[str, ...]:
+    """How an error about the element at ``path`` may name it: the element, the array holding
+    it, or — for an element of an array of arrays (a polygon's vertex) — the key of the array."""
+    array = path
+    while isinstance(array[-1], int):
+        array = array[:-1]
+    return key_name(path), key_name(path[:-1]), key_name(array)
+
+
 def get(doc, path):
     for p in path:
         doc = doc[p]
