@@ -129,6 +129,13 @@ def test_impedance_fields_are_clamped_into_range_and_counted_only_when_clamped()
     np.testing.assert_allclose(c.q_des, [-0.9, -1.9, 2.9])
     np.testing.assert_allclose(c.qd_des, [0.1, -V_MAX[1], 1.0])
     assert r.stage.summary()["clamps"]["impedance"] == [1, 1, 1]
+    # one field out of range at a time is counted too (a mutation run found kp alone uncounted)
+    for field, joint, value, clamps in (("kp", 0, 600.0, [2, 1, 1]), ("kd", 1, 30.0, [2, 2, 1]),
+                                        ("q_des", 2, 3.5, [2, 2, 2]), ("qd_des", 0, 9.0, [3, 2, 2])):
+        c.q_des[:], c.qd_des[:], c.kp[:], c.kd[:] = [0.5, -1.0, 2.0], [0.1, -0.2, 1.0], [100.0, 50.0, 10.0], [2.0, 1.0, 3.0]
+        getattr(c, field)[joint] = value
+        assert r.step() == Verdict.OK
+        assert r.stage.summary()["clamps"]["impedance"] == clamps, field
 
 
 def test_the_impedance_torque_predicted_at_a_soft_limit_includes_the_damper():

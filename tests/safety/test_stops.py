@@ -63,6 +63,19 @@ def test_a_normal_stop_damps_like_an_estop_but_latches_nothing():
     assert r.step() == Verdict.DEACTIVATE
 
 
+def test_a_normal_stop_carries_the_weight_where_the_arm_is_when_it_begins():
+    # the damping stop's feed-forward is gravity at the stop's position, not at the start's
+    r = Rig(estop_off_delay=1.0, damping=2.0, gravity=lambda q: 10.0 * q)
+    r.state.position[:] = [0.1, 0.2, 0.3]
+    r.step()
+    r.state.position[:] = [0.4, -0.5, 0.6]
+    r.state.velocity[:] = [1.0, -1.0, 0.5]  # still moving: the stop damps before it switches off
+    r.step()
+    r.stage.stop("duration reached")
+    assert r.step() == Verdict.FALLBACK
+    np.testing.assert_allclose(r.command.tau_ff, [4.0, -5.0, 6.0] - 2.0 * r.state.velocity)
+
+
 def test_a_fault_during_a_normal_stop_is_still_a_fault():
     r = Rig(estop_off_delay=1.0)
     r.state.velocity[:] = 0.5
