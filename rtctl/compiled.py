@@ -19,5 +19,10 @@ from __future__ import annotations
 from numba import njit
 from numba.extending import register_jitable
 
-kernel = njit(cache=True, _nrt=False)
 leaf = register_jitable(_nrt=False)
+
+
+def kernel(fn=None, /, **options):
+    """``@kernel``, or ``@kernel(error_model="numpy")`` with further numba options."""
+    jit = njit(cache=True, _nrt=False, **options)
+    return jit if fn is None else jit(fn)

@@ -12,7 +12,8 @@ depends on.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from rtctl.compiled import kernel
 
 NO_ENTRY = 2.0  # segment_entry's s when the segment enters nothing (s is in [0, 1])
 # rows of the guard's limit table (n columns)
@@ -34,7 +35,7 @@ PASS, MODIFIED, STOP = 0, 1, 2
 IMPEDANCE = 1
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def piece_depth(rows, cols, r0, r1, x, enough=np.inf):  # pragma: no cover - compiled
     """max over the piece's rows of w·x − c: negative inside the piece, < m inside it inflated by
     m. Stops early once it reaches ``enough`` (the caller only needs to know it is that far)."""
@@ -48,7 +49,7 @@ def piece_depth(rows, cols, r0, r1, x, enough=np.inf):  # pragma: no cover - com
     return d
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def clearance(rows, cols, pieces, x):  # pragma: no cover - compiled
     """(smallest piece depth at x, that piece; +inf and -1 without pieces)."""
     best, which = np.inf, -1
@@ -59,14 +60,14 @@ def clearance(rows, cols, pieces, x):  # pragma: no cover - compiled
     return best, which
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def clearances(rows, cols, pieces, X, out):  # pragma: no cover - compiled
     """out[k] = smallest piece depth at X[k] (for sampled trajectories)."""
     for k in range(X.shape[0]):
         out[k] = clearance(rows, cols, pieces, X[k])[0]
 
 
-@njit(cache=True, error_model="numpy", inline="always")  # called per face: inlined, a call would cost more than the test
+@kernel(error_model="numpy", inline="always")  # called per face: inlined, a call would cost more than the test
 def _outside(rows, cols, r, a, b, margin):  # pragma: no cover - compiled
     """Both ends of a→b lie outside face r of the piece inflated by ``margin``."""
     i, j = cols[r, 0], cols[r, 1]
@@ -74,7 +75,7 @@ def _outside(rows, cols, r, a, b, margin):  # pragma: no cover - compiled
     return rows[r, 0] * a[i] + rows[r, 1] * a[j] >= edge and rows[r, 0] * b[i] + rows[r, 1] * b[j] >= edge
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def separating_face(rows, cols, r0, r1, a, b, margin):  # pragma: no cover - compiled
     """A face of the piece that both ends of a→b lie outside of (the segment then misses the
     piece), or -1. Cheap: no divisions."""
@@ -84,7 +85,7 @@ def separating_face(rows, cols, r0, r1, a, b, margin):  # pragma: no cover - com
     return -1
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def clip(rows, cols, r0, r1, a, b, margin):  # pragma: no cover - compiled
     """Cyrus–Beck clipping of a→b against the open piece inflated by ``margin``: (s, row), s in
     [0, 1] where the segment enters (0: a is inside), row the face crossed there (-1 when a is
@@ -110,7 +111,7 @@ def clip(rows, cols, r0, r1, a, b, margin):  # pragma: no cover - compiled
     return s_lo, face
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def piece_entry(rows, cols, r0, r1, a, b, margin):  # pragma: no cover - compiled
     """Where a→b enters the open piece inflated by ``margin``: see :func:`clip`."""
     if separating_face(rows, cols, r0, r1, a, b, margin) >= 0:
@@ -118,7 +119,7 @@ def piece_entry(rows, cols, r0, r1, a, b, margin):  # pragma: no cover - compile
     return clip(rows, cols, r0, r1, a, b, margin)
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def segment_entry(rows, cols, pieces, a, b, margin):  # pragma: no cover - compiled
     """The first entry of a→b into any piece inflated by ``margin``: (s, piece, face row);
     (NO_ENTRY, -1, -1) when the segment stays outside all of them."""
@@ -130,7 +131,7 @@ def segment_entry(rows, cols, pieces, a, b, margin):  # pragma: no cover - compi
     return best, which, face
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def segment_entry_hinted(rows, cols, pieces, a, b, margin, hints):  # pragma: no cover - compiled
     """:func:`segment_entry` for a segment that moves little between calls (the per-tick
     stopping path): ``hints[p]`` remembers the face that separated piece p last time, which
@@ -150,7 +151,7 @@ def segment_entry_hinted(rows, cols, pieces, a, b, margin, hints):  # pragma: no
     return best, which, face
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def _push_out(i, j, wi, wj, depth, q, qd, q_des, qd_des, tau, mode, par):  # pragma: no cover - compiled
     """Clamp along the outward unit normal (wi at joint i, wj at joint j; i == j with wj = 0
     for a box face or a limit): drop the command's inward component and add a wall force,
@@ -174,7 +175,7 @@ def _push_out(i, j, wi, wj, depth, q, qd, q_des, qd_des, tau, mode, par):  # pra
             qd_des[j] -= v * wj
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def guard_tick(q, qd, mode, q_des, qd_des, tau, rows, cols, pieces, lim, par, work, report, hints):  # pragma: no cover
     """The run-time guard for one tick; returns PASS, MODIFIED or STOP and fills ``report``.
 
@@ -244,30 +245,42 @@ def guard_tick(q, qd, mode, q_des, qd_des, tau, rows, cols, pieces, lim, par, wo
 
 
 # ---- the per-tick call, packed: numba's dispatcher costs about as much per argument as the
-# ---- check itself, so the guard's tables travel as two arrays (sliced, never reshaped, inside)
+# ---- check itself, so the guard's tables travel as two flat arrays, each table a contiguous
+# ---- block of them. Viewed as C-contiguous 2-D arrays inside, they have the types the tables
+# ---- have when the planners call the same kernels from Python: each kernel compiles once.
+def _layout(R: int, P: int, n: int):
+    """Offsets (float blocks: rows, lim, par, work; uint32 blocks: cols, pieces, hints, report)
+    and the two buffers' lengths; the uint32 buffer starts with the header R, P."""
+    f = np.cumsum([0, 3 * R, N_LIMIT_ROWS * n, N_PARAMS, N_WORK_ROWS * n])
+    u = np.cumsum([2, 2 * R, 3 * P, P, N_REPORT])
+    return f, u
+
+
 def pack(rows, cols, pieces, lim, par, work, report):
-    """(F, I, views): F float (R + N_LIMIT_ROWS + 1 + N_WORK_ROWS, W) holds rows, lim, par and
-    work; I uint32 (1 + R + P + 1, 4) holds a header (R, P), cols, pieces (4th column: the
-    separating-face hints) and the report. ``views`` = (rows, cols, pieces, lim, par, work,
-    report, hints) into them, for the caller to read and write."""
+    """(F, I, views): F float holds rows, lim, par and work; I uint32 holds a header (R, P),
+    cols, pieces, the separating-face hints (initially each piece's first row) and the report.
+    ``views`` = (rows, cols, pieces, lim, par, work, report, hints) into them, for the caller to
+    read and write."""
     R, P, n = rows.shape[0], pieces.shape[0], lim.shape[1]
-    F = np.zeros((R + N_LIMIT_ROWS + 1 + N_WORK_ROWS, max(3, n, N_PARAMS)))
-    I = np.zeros((1 + R + P + 1, 4), dtype=np.uint32)
-    I[0, :2] = R, P
-    F[:R, :3], F[R:R + N_LIMIT_ROWS, :n], F[R + N_LIMIT_ROWS, :N_PARAMS] = rows, lim, par
-    F[R + N_LIMIT_ROWS + 1:, :n] = work
-    I[1:1 + R, :2], I[1 + R:1 + R + P, :3], I[1 + R + P, :N_REPORT] = cols, pieces, report[:N_REPORT]
-    I[1 + R:1 + R + P, 3] = pieces[:, 0]
-    views = (F[:R, :3], I[1:1 + R, :2], I[1 + R:1 + R + P, :3], F[R:R + N_LIMIT_ROWS, :n],
-             F[R + N_LIMIT_ROWS, :N_PARAMS], F[R + N_LIMIT_ROWS + 1:, :n], I[1 + R + P, :N_REPORT],
-             I[1 + R:1 + R + P, 3])
+    f, u = _layout(R, P, n)
+    F, I = np.zeros(f[-1]), np.zeros(u[-1], dtype=np.uint32)
+    I[:2] = R, P
+    views = (F[f[0]:f[1]].reshape(R, 3), I[u[0]:u[1]].reshape(R, 2), I[u[1]:u[2]].reshape(P, 3),
+             F[f[1]:f[2]].reshape(N_LIMIT_ROWS, n), F[f[2]:f[3]], F[f[3]:f[4]].reshape(N_WORK_ROWS, n),
+             I[u[3]:u[4]], I[u[2]:u[3]])
+    for view, value in zip(views, (rows, cols, pieces, lim, par, work, report[:N_REPORT], pieces[:, 0])):
+        view[...] = value
     return F, I, views
 
 
-@njit(cache=True, error_model="numpy")
+@kernel(error_model="numpy")
 def guard_tick_packed(q, qd, mode, q_des, qd_des, tau, F, I):  # pragma: no cover - compiled
-    """:func:`guard_tick` on the tables of :func:`pack`."""
-    R, P, n = I[0, 0], I[0, 1], q.shape[0]
-    L = R + N_LIMIT_ROWS
-    return guard_tick(q, qd, mode, q_des, qd_des, tau, F[:R, :3], I[1:1 + R, :2], I[1 + R:1 + R + P, :3],
-                      F[R:L, :n], F[L, :N_PARAMS], F[L + 1:, :n], I[1 + R + P, :N_REPORT], I[1 + R:1 + R + P, 3])
+    """:func:`guard_tick` on the buffers of :func:`pack` (the same layout as :func:`_layout`)."""
+    R, P, n = np.int64(I[0]), np.int64(I[1]), q.shape[0]
+    f1, f2 = 3 * R, 3 * R + N_LIMIT_ROWS * n
+    f3 = f2 + N_PARAMS
+    u1, u2 = 2 + 2 * R, 2 + 2 * R + 3 * P
+    u3 = u2 + P
+    return guard_tick(q, qd, mode, q_des, qd_des, tau, F[:f1].reshape((R, 3)), I[2:u1].reshape((R, 2)),
+                      I[u1:u2].reshape((P, 3)), F[f1:f2].reshape((N_LIMIT_ROWS, n)), F[f2:f3],
+                      F[f3:f3 + N_WORK_ROWS * n].reshape((N_WORK_ROWS, n)), I[u3:u3 + N_REPORT], I[u2:u3])

@@ -164,6 +164,9 @@ class Scene:
             if isinstance(value, np.ndarray):
                 value.setflags(write=False)
             object.__setattr__(self, name, value)
+        # the kernels' copies: writable, so that a call from Python has the types of the per-tick
+        # guard's packed tables and numba compiles each kernel once (the kernels never write them)
+        object.__setattr__(self, "_tables", (self.rows.copy(), self.cols.copy(), self.pieces.copy()))
 
     @property
     def n(self) -> int:
@@ -205,9 +208,10 @@ class Scene:
 
     def tables(self, pieces=None):
         """(rows, cols, pieces) of all pieces, or of the given piece indices only."""
+        rows, cols, all_pieces = self._tables
         if pieces is None:
-            return self.rows, self.cols, self.pieces
-        return self.rows, self.cols, np.ascontiguousarray(self.pieces[list(pieces)]).reshape(-1, 3)
+            return rows, cols, all_pieces
+        return rows, cols, np.ascontiguousarray(all_pieces[list(pieces)]).reshape(-1, 3)
 
     def inflated_shape(self, piece: int, plane: tuple[int, int], margin: float, bounds):
         """The margin-inflated piece in the (q_plane[0], q_plane[1]) plane, as a shapely polygon
