@@ -8,9 +8,9 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from numba import njit
 
 from rtctl.bench import median_us
+from rtctl.compiled import kernel
 from rtctl.control.arma_gmv import ArmaGmv, arma_gmv_kernel
 from rtctl.control.base import Reference
 from rtctl.hal.joints import JointCommand, JointState
@@ -27,7 +27,7 @@ def _chain(n: int) -> Model:
                  q_min=np.full(n, -3.0), q_max=np.full(n, 3.0))
 
 
-@njit(cache=True)
+@kernel
 def _kernel_loop(count, iset, fset, jp, joints, pos, rq, rqd, rqdd, theta, P, drift, signals, fade, yh, uh, scratch,
                  tau):
     for _ in range(count):

@@ -23,8 +23,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from rtctl.compiled import kernel
 from rtctl.control.base import Controller
 from rtctl.control.gmv import gmv_law, gmv_phi
 from rtctl.errors import ControllerError
@@ -43,7 +43,7 @@ FAILURES = QUANTITIES + ("torque u", "measured position y", "reference y*")
 _STRIDE = 16
 
 
-@njit(cache=True)
+@kernel
 def arma_gmv_kernel(iset, fset, joint_params, joints, position, ref_q, ref_qd, ref_qdd, theta, P, drift, signals,
                     fade, y_hist, u_hist, scratch, tau):
     """One controller update over the owned joints; returns 0 or 1 + 16·(local joint) + the

@@ -21,12 +21,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from rtctl.compiled import kernel
 from rtctl.estimation.arx import ArxOrder
 
 
-@njit(cache=True)
+@kernel
 def gmv_phi(i, theta, r_hat, y, y_hist, u_hist, na, d, y_pred):
     """φ(k) of channel ``i``: the d-step prediction (28) with u(k) = 0. ``y_pred``: scratch (≥ d)."""
     nb1 = theta.shape[0] - na
@@ -48,7 +48,7 @@ def gmv_phi(i, theta, r_hat, y, y_hist, u_hist, na, d, y_pred):
     return y_pred[d - 1]
 
 
-@njit(cache=True, error_model="numpy")  # 0/0 → NaN, caught by the caller
+@kernel(error_model="numpy")  # 0/0 → NaN, caught by the caller
 def gmv_law(b0, phi, y_star, rho, u_prev, u_max):
     """u(k) of (30), saturated at ±u_max (NaN stays NaN for the caller to catch)."""
     u = (b0 * (y_star - phi) + rho * u_prev) / (b0 * b0 + rho)

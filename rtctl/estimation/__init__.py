@@ -1,4 +1,4 @@
-"""On-line identification (DESIGN: rtctl/estimation): the per-joint ARX model and the Sage–Husa
+"""On-line identification (docs/arma_kalman.md): the per-joint ARX model and the Sage–Husa
 adaptive Kalman filter of Qu & Jiang's adaptive controller — used by the ``arma_gmv``
 controller every sample, and offline on recorded runs (:func:`identify`, ``rtctl identify``)."""
 from rtctl.estimation.arx import ArxOrder, push_history, regressor_into, simulate

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from rtctl.compiled import kernel
 
 
 @dataclass(frozen=True)
@@ -41,7 +41,7 @@ class ArxOrder:
         return [f"a{j}" for j in range(1, self.na + 1)] + [f"b{j}" for j in range(self.nb + 1)]
 
 
-@njit(cache=True)
+@kernel
 def regressor_into(i, y_hist, u_hist, d, h):
     """h(k) of channel ``i`` (eq. 15) from its histories (channel-last: (na, m), (d + nb, m))."""
     na = y_hist.shape[0]
@@ -51,7 +51,7 @@ def regressor_into(i, y_hist, u_hist, d, h):
         h[na + j] = u_hist[d - 1 + j, i]
 
 
-@njit(cache=True)
+@kernel
 def push_history(i, y_hist, u_hist, y, u):
     """Shift channel ``i``'s histories by one sample, newest first."""
     for j in range(y_hist.shape[0] - 1, 0, -1):

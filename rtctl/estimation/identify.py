@@ -6,13 +6,12 @@ every ``period`` seconds — the controller's sample time); ``rtctl identify`` p
 """
 from __future__ import annotations
 
-import json
-
 import numpy as np
 
 from rtctl.errors import RtctlError
 from rtctl.estimation.arx import ArxOrder, push_history, regressor_into
 from rtctl.estimation.sage_husa import EPS, PRED_ERR, SageHusa, sage_husa_step
+from rtctl.jsonout import dumps
 
 
 def identify(y, u, order: ArxOrder = ArxOrder(), **filter_options) -> dict:
@@ -100,9 +99,8 @@ def main(args) -> int:
         raise RtctlError(str(e)) from None
     print(format_result(result))
     if args.json:
-        out = {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in result.items()
-               if k not in ("eps", "prediction_error")}
+        out = {k: v for k, v in result.items() if k not in ("eps", "prediction_error")}
         out["order"] = {"na": order.na, "nb": order.nb, "d": order.d}
         with open(args.json, "w") as f:
-            json.dump(out, f, indent=2)
+            f.write(dumps(out, indent=2))  # strict: a diverged estimate is null, not NaN
     return 0

@@ -37,7 +37,8 @@ updates one channel (:func:`sage_husa_step`) and allocates nothing.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from rtctl.compiled import kernel
 
 # switches (indices into the int64 ``switches`` array)
 ADAPT_R, ADAPT_RCOV, ADAPT_Q, ADAPT_QCOV, FORGET_COV = range(5)
@@ -47,7 +48,7 @@ R_HAT, RCOV_HAT, EPS, PRED_ERR = range(4)
 R_REL = 1e-9  # the gain's R is at least R_REL · hᵀP(k+1|k)h
 
 
-@njit(cache=True, error_model="numpy")  # 0/0 → NaN, caught by the caller
+@kernel(error_model="numpy")  # 0/0 → NaN, caught by the caller
 def sage_husa_step(i, theta, P, q_hat, Q_hat, signals, fade, h, y, lam, switches, R_min, Q_min, Ph, old_diag):
     """One filter step of channel ``i`` with regressor ``h`` and measurement ``y``; ``fade[i]`` =
     λᵏ, k the channel's steps since the start (1 at the start: d_0 = 1). ``Ph``, ``old_diag``:
@@ -119,7 +120,7 @@ def sage_husa_step(i, theta, P, q_hat, Q_hat, signals, fade, h, y, lam, switches
     signals[PRED_ERR, i] = pred
 
 
-@njit(cache=True)
+@kernel
 def first_nonfinite(i, theta, P, q_hat, Q_hat, signals) -> int:
     """−1 if channel ``i``'s estimates are all finite, else the index of the first bad quantity
     in :data:`QUANTITIES`. One sum on the normal path (NaN and ±inf propagate through it)."""
