@@ -77,6 +77,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--log-level", default="info", choices=("debug", "info", "warning", "error"))
     run.add_argument("--log-format", default="auto", choices=("auto", "console", "json"),
                      help="auto (default): console on a terminal, json otherwise")
+    run.add_argument("--progress", type=_FACTOR, metavar="S",
+                     help="log a 'running' line (loop time, ticks, overruns, tracking error) every S s of wall "
+                          "time; 0 = never (default: every second on a terminal, never in JSON logs)")
 
     check = sub.add_parser("check", help="validate a run configuration; print the bus-load budget, the environment "
                                          "variables a run reads and the guard's report (crossings of interference "

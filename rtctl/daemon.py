@@ -34,6 +34,7 @@ from rtctl.config import load_config, realtime_factor
 from rtctl.control_socket import ControlServer
 from rtctl.errors import ConfigError, HardwareError, RtctlError, TelemetryError, TrajectoryError
 from rtctl.guard import run as guarded
+from rtctl.progress import Progress, interval_for
 from rtctl.hal import JointCommand, Status
 from rtctl.model.dynamics import gravity as gravity_of
 from rtctl.runtime import build
@@ -53,6 +54,7 @@ def run(args, fmt: str) -> int:
     """``rtctl run``, logging in ``fmt`` (``console`` or ``json``: the CLI has configured it)."""
     daemon = prepare(args)
     daemon.summary_line = fmt == "json"  # on a terminal the table below says it better
+    daemon.progress_s = interval_for(getattr(args, "progress", None), fmt)
     try:
         return daemon.run()
     finally:
@@ -90,6 +92,7 @@ class Daemon:
         self.estopped = False  # by the operator: drives off, the daemon stays up until `reset` or `stop`
         self.summary: dict | None = None  # written by _finish
         self.summary_line = True  # log the summary as one event (the JSON log's last line)
+        self.progress_s = 0.0  # a "running" line every progress_s s of wall time (0: none)
         self.limits = _trajectory_limits(cfg)
         self._check_trajectory()
         self.guard = guarded.runtime_guard(cfg, self.limits)
@@ -259,9 +262,11 @@ class Daemon:
         duration = self.args.duration
         stopping_since = None
         ticker.start()
+        progress = Progress(self.progress_s, duration, ticker, self.rt.state, self.rt.ref)
         while True:
             ticker.wait()
             t = ticker.sim_time_s
+            progress.tick(t)
             if self.stop_reason is None and duration is not None and t >= duration:
                 self.stop_reason = "duration reached"
             if self.stop_reason is not None and stopping_since is None:

@@ -132,6 +132,11 @@ class Ticker:
         return due(self.prev_tick, self.tick, divisor)
 
     @property
+    def wake_ns(self) -> int:
+        """When the current tick woke up, on the clock (``start()``'s time before the first)."""
+        return self._wake_ns
+
+    @property
     def sim_time_s(self) -> float:
         """Simulated time of the current tick: ``k·period``."""
         return self.tick * self.period_ns * 1e-9

@@ -27,7 +27,7 @@ def strict_loads(text: str):
 
 def test_on_a_terminal_the_run_ends_with_a_summary_table(write_config, tmp_path):
     leader, follower = pty.openpty()
-    proc = subprocess.Popen([sys.executable, "-m", "rtctl.cli", "run", str(write_config()), "--duration", "0.3",
+    proc = subprocess.Popen([sys.executable, "-m", "rtctl.cli", "run", str(write_config(PACED)), "--duration", "1.3",
                              "--socket", str(tmp_path / "s")], stdout=follower, stderr=follower, cwd=ROOT)
     os.close(follower)
     out = b""
@@ -44,6 +44,7 @@ def test_on_a_terminal_the_run_ends_with_a_summary_table(write_config, tmp_path)
     text = out.decode()
     assert not any(line.lstrip().startswith("{") for line in text.splitlines())  # no JSON on a terminal
     assert "started" in text and "stop" in text
+    assert "running" in text  # a progress line every second on a terminal: never silent for long
     table = text[text.index("run summary"):].splitlines()
     assert table[0].startswith("run summary — duration reached (exit 0)")
     assert table[1].split()[0] == "ticks" and int(table[1].split()[1]) >= 300
@@ -68,6 +69,7 @@ def test_json_logs_and_summary_are_strict_even_with_a_fault(daemon, write_config
     lines = out.splitlines()
     records = [strict_loads(line) for line in lines]
     assert records and all(isinstance(r, dict) and r["event"] for r in records)
+    assert not any(r["event"] == "running" for r in records)  # no progress lines in JSON logs unless asked
     fault = next(r for r in records if r["event"] == "fault")
     assert fault["kind"] == "estop" and fault["value"] is None
     assert records[-1]["event"] == "summary" and records[-1]["exit_code"] == code
@@ -84,3 +86,15 @@ def test_json_logs_and_summary_are_strict_even_with_a_fault(daemon, write_config
                             capture_output=True, text=True, timeout=60)
     assert parsed.returncode == 0, parsed.stderr
     assert int(parsed.stdout) == len(lines) + 1
+
+
+def test_progress_lines_every_so_often_when_asked(write_config, tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "rtctl.cli", "run", str(write_config(PACED)), "--duration", "1.2",
+                           "--log-format", "json", "--progress", "0.25", "--socket", str(tmp_path / "s")],
+                          capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    running = [r for r in map(strict_loads, proc.stdout.splitlines()) if r["event"] == "running"]
+    times = [r["t"] for r in running]
+    # one every 0.25 s of wall time (paced: loop time follows the wall clock, skipped periods included)
+    assert len(running) >= 3 and all(b - a > 0.2 for a, b in zip(times, times[1:])), running
+    assert all(r["duration"] == 1.2 and r["ticks"] > 0 and 0 <= r["tracking_error"] < 0.1 for r in running)
