@@ -68,7 +68,7 @@ class PlantHub:
         self.lock = threading.RLock()  # slcan serves each bus from its own thread
         self.buses: list[HubBus] = []
         self.drives: list[tuple[str, MitDrive]] = []
-        self.addressed: list[bool] = []
+        self.commands: list[int] = []  # command sets each drive received
         self._pending = 0  # drives not yet commanded in this cycle
         self._enabled: list[bool] = []
         self._trips: list[int] = []
@@ -84,8 +84,8 @@ class PlantHub:
         self.buses.append(bus)
         for d in bus.drives.values():
             self.drives.append((bus.name, d))
-            self.addressed.append(False)
-            self._pending = len(self.addressed)
+            self.commands.append(0)
+            self._pending = len(self.commands)
             self._enabled.append(d.enabled)
             self._trips.append(d.counters.watchdog_trips)
         if self.factor > 0 and len(self.buses) == 1:
@@ -102,18 +102,18 @@ class PlantHub:
     def commanded(self, index: int, now: float) -> None:
         """Drive ``index`` was sent a command (and has answered it). The last of a command set
         completes a cycle: lock-step advances the plant now, before the next set can arrive
-        (even when the transport delivers two sets in one read)."""
-        if not self.addressed[index]:
-            self.addressed[index] = True
+        (even when the transport delivers two sets in one read). Counted per drive: when this
+        process reads one bus's next set before another bus's current one (a stall, two
+        connections), that set counts for the next cycle instead of vanishing into this one."""
+        self.commands[index] += 1
+        if self.commands[index] == self.cycles + 1:  # its command of the cycle in progress
             self._pending -= 1
-        if self._pending == 0:
-            for k in range(len(self.addressed)):
-                self.addressed[k] = False
-            self._pending = len(self.addressed)
+        while self._pending == 0:
             if self.factor == 0:
                 for _ in range(self._periods_due(now)):
                     self.plant.step(self.period)
             self.cycles += 1
+            self._pending = sum(1 for n in self.commands if n <= self.cycles)
             self._scripted()
 
     def _periods_due(self, now: float) -> int:
