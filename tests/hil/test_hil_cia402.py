@@ -55,13 +55,13 @@ def test_puma560_tracks_in_cst_over_socketcand_at_500hz(tmp_path, hil_sim):
     # one SYNC per bus per tick: the lock-step plant advanced once per tick
     assert sim_exit["cycles"] == summary["timing"]["ticks"]
     assert all(d["counters"]["syncs"] >= summary["timing"]["ticks"] for d in sim_exit["drives"])
-    # measured max 3.4-7.8 mrad, RMS 0.3-0.6 mrad on this machine under others' load (the larger
-    # values with overruns: a skipped period jumps the reference ahead)
+    # 9 runs in a row on this VM (2026-12-01; each had overruns: two socketcand round trips per
+    # 2 ms tick): max 2.9-10.2 mrad, RMS 0.2-0.5 mrad; the bounds are 3× the worst
     tracking = summary["tracking_error_rad"]
     print(f"CST tracking: max {tracking['max_all']:.4f} rad, rms {tracking['rms_all']:.4f} rad, "
           f"overruns {summary['timing']['overruns']}/{summary['timing']['ticks']}")
     with unless_stalled(summary):
-        assert tracking["max_all"] < 0.03 and tracking["rms_all"] < 0.005, tracking
+        assert tracking["max_all"] < 3 * 0.0102 and tracking["rms_all"] < 3 * 0.0005, tracking
     assert np.all(np.ptp(telemetry["q"], axis=0)[:3] > np.radians(20))  # it did move
 
 

@@ -56,4 +56,9 @@ def test_a_closed_pty_or_a_silent_board_locks_the_leg_and_exits_3(hil_sim, tmp_p
     actions = tel["leg_actions"]
     rows = np.flatnonzero(tel["t"] >= faults[0]["t"])
     assert rows.size and np.all(actions[rows] == 0), "both joints locked from the fault's tick on"
+    if kind == "stale":  # exactly stale_ticks ticks after the board's last frame (never retried)
+        # the sensors are noisy: every frame changes the channels, a silent board leaves them as they were
+        new_frame = np.flatnonzero(np.any(np.diff(tel["leg_channels"], axis=0) != 0, axis=1)) + 1
+        last_frame = new_frame[new_frame < rows[0]][-1]
+        assert rows[0] - last_frame == 5, (int(rows[0]), int(last_frame))
     assert tick > 0 and summary["exit_code"] == 3

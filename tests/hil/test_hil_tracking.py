@@ -1,6 +1,12 @@
 """HIL: `hil-sim` in its own process plays the robot and its MIT drives; `rtctl run` closes the
 loop through python-can — the PUMA 560 over socketcand (six joints, 500 Hz, one 1 Mbit/s bus)
-and three joints over slcan on a pty. Measured bounds are in the asserts' comments."""
+and three joints over slcan on a pty.
+
+Bounds per transport: 3× the worst of 20 runs in a row on this 2-core VM (2026-12-01, the suite
+10 times with retries off plus these tests 10 times; docs/testing.md). Over socketcand a run
+without an overrun is reproducible to the bit (lock-step): max 5.2 mrad, RMS 1.0 mrad in all 9
+such runs; a run with overruns is worse (up to 85 mrad: the reference jumps over the skipped
+periods) and is retried as a stall. Over slcan (250 Hz) all 20 stayed within 31.5 / 6.8 mrad."""
 import numpy as np
 import pytest
 
@@ -13,6 +19,8 @@ pytestmark = pytest.mark.hil
 # checks 10 ticks, so that such a stall is not a fault. The 20 ms watchdog and the 3-tick stale
 # limit themselves are exercised in test_hil_faults.
 TOLERANT = {"drive_timeout": 0.1, "stale_limit": 10, "stale_ticks": 10}
+SOCKETCAND_MAX, SOCKETCAND_RMS = 3 * 0.0052, 3 * 0.0010  # rad: 3× the worst quiet run
+SLCAN_MAX, SLCAN_RMS = 3 * 0.0315, 3 * 0.0068
 
 
 def check_complete(summary, telemetry, sim_exit):
@@ -35,13 +43,11 @@ def test_puma560_over_socketcand_tracks_its_trajectory(tmp_path, hil_sim):
     # every command set the loop sent advanced the plant once (lock-step per protocol)
     assert sim_exit["cycles"] == arm["cycles"] == summary["timing"]["ticks"]
     assert all(d["counters"]["commands"] == arm["cycles"] for d in sim_exit["drives"])
-    # the joints followed the trajectory: measured max 0.005-0.07 rad, RMS 0.001-0.012 rad
-    # (the larger values when the machine is busy: skipped periods jump the reference ahead)
     tracking = summary["tracking_error_rad"]
     print(f"socketcand tracking: max {tracking['max_all']:.4f} rad, rms {tracking['rms_all']:.4f} rad, "
           f"overruns {summary['timing']['overruns']}/{summary['timing']['ticks']}")
     with unless_stalled(summary):
-        assert tracking["max_all"] < 0.15 and tracking["rms_all"] < 0.03, tracking
+        assert tracking["max_all"] < SOCKETCAND_MAX and tracking["rms_all"] < SOCKETCAND_RMS, tracking
     moved = np.ptp(telemetry["q"], axis=0)
     assert np.all(moved[:3] > np.radians(20)), moved  # it did move along the waypoints
 
@@ -58,7 +64,7 @@ def test_three_joints_over_slcan_track_their_trajectory(tmp_path, hil_sim):
           f"overruns {summary['timing']['overruns']}/{summary['timing']['ticks']}")
     with unless_stalled(summary):
         assert code == 0, (summary["stop_reason"], summary["timing"]["overruns"])
-        assert tracking["max_all"] < 0.15 and tracking["rms_all"] < 0.03, tracking
+        assert tracking["max_all"] < SLCAN_MAX and tracking["rms_all"] < SLCAN_RMS, tracking
     # the shoulder's drive is mounted reversed with an offset: the loop still sees the joint, which
     # moved from 0 towards +20° and -10°, while the drive reported -(q - 0.5)
     q = telemetry["q"][:, 1]
