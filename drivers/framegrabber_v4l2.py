@@ -8,6 +8,8 @@ keeps the window and the field's lines, applies offset, gain and levels and pack
 A "field" is the field's lines of a captured frame (and "fields" alternates them), at the
 card's frame rate. Capture times are the card's buffer timestamps (CLOCK_MONOTONIC), put on
 the loop's clock (:class:`rtctl.hal.framegrabber.LoopClock`); the sequence number is the card's.
+N-shot (``shots`` = N): a card streams on, so the backend hands out the next N frames after each
+programming (or ``trigger()``) and discards the rest unseen — they are not counted as dropped.
 
 Options (``backend = "v4l2"``): ``device`` (default ``/dev/video0``), ``pixel_format``
 ("GREY" or "YUYV"), ``capture_size`` ([width, height], default [720, 576], PAL), and
@@ -64,6 +66,7 @@ class V4l2FrameGrabber(FrameGrabber):
         self._device = self._capture = None
         self._last_seq: int | None = None  # the card's sequence number of the last frame
         self._parity = 0
+        self._shots_left = -1  # N-shot: frames still to hand out (-1: continuous)
         self._clock = LoopClock()
 
     @classmethod
@@ -108,6 +111,7 @@ class V4l2FrameGrabber(FrameGrabber):
         self._digitiser = PictureDigitiser(settings, *self._picture_size)
         self._words = [np.empty((settings.rows, settings.words_per_row), dtype=WORD_DTYPES[settings.word_bits])
                        for _ in range(2)]  # the frame handed out, and the next one
+        self._shots_left = settings.shots if settings.shots else -1
 
     def _poll(self, t: float) -> bool:
         if self._capture is None or self._capture.buffer is None or not hasattr(self, "_digitiser"):
@@ -115,17 +119,22 @@ class V4l2FrameGrabber(FrameGrabber):
         if not select.select((self._device,), (), (), 0)[0]:
             return False
         data, buff = self._capture.buffer.raw_grab(into=self._raw)
+        seq = int(buff.sequence)
+        if self._shots_left == 0:  # the burst is complete: idle until triggered (the card streams on)
+            self._last_seq = seq
+            return False
         height, width = self._picture_size
         lines = np.frombuffer(self._raw, dtype=np.uint8)[:height * self._stride].reshape(height, self._stride)
         picture = lines[:, 0:2 * width:2] if self.pixel_format == "YUYV" else lines[:, :width]
         s = self._digitiser.settings
         field = {"fields": ("odd", "even")[self._parity], "frame": "frame"}.get(s.scan, s.scan)
         self._parity ^= 1
-        seq = int(buff.sequence)
         if self._last_seq is not None:
             self.dropped += max(0, seq - self._last_seq - 1)  # frames the card completed that we missed
         self._last_seq = seq
         self.frames += 1
+        if self._shots_left > 0:
+            self._shots_left -= 1
         words = self._words[self.frames % 2]
         self._digitiser(np.ascontiguousarray(picture), field, words)
         capture_ns = buff.timestamp.secs * 1_000_000_000 + buff.timestamp.usecs * 1000

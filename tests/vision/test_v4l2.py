@@ -70,3 +70,66 @@ def test_real_capture_card_delivers_a_frame():
         pytest.fail(f"no frame from {VIDEO[0]} within 3 s ({grabber.last_error})")
     finally:
         grabber.close()
+
+
+class _FakeCard:
+    """Stands in for linuxpy's device and capture: always a frame ready (a readable pipe for
+    select), each a new sequence number and timestamp."""
+
+    def __init__(self, height, width):
+        import os
+        from types import SimpleNamespace
+
+        self._read_end, write_end = os.pipe()
+        os.write(write_end, b"x")  # stays unread: select always finds the "device" readable
+        self._write_end, self.height, self.width, self.seq = write_end, height, width, -1
+        self.buffer = SimpleNamespace(raw_grab=self.raw_grab)
+
+    def fileno(self):
+        return self._read_end
+
+    def raw_grab(self, into):
+        from types import SimpleNamespace
+
+        self.seq += 1
+        into[:self.height * self.width] = bytes([self.seq % 256]) * (self.height * self.width)
+        stamp = SimpleNamespace(secs=1000 + self.seq // 25, usecs=(self.seq % 25) * 40_000)
+        return None, SimpleNamespace(sequence=self.seq, timestamp=stamp)
+
+    def close(self):
+        import os
+
+        os.close(self._read_end)
+        os.close(self._write_end)
+
+
+def _take(grabber, t):
+    grabber._read(t)  # what the loop's read() runs once the device is active
+    return grabber.grab()
+
+
+@pytest.mark.parametrize("shots", [0, 3])
+def test_n_shot_hands_out_n_frames_per_trigger_and_continuous_all(shots):
+    """A card streams on: N-shot hands out the next N frames after programming and after each
+    trigger, and neither the frames it ignores in between nor continuous mode count as dropped."""
+    height, width = 48, 64
+    settings = GrabberSettings(density=64, scan="frame", word_bits=8, shots=shots)
+    grabber = V4l2FrameGrabber("camera", settings, "/dev/null", "GREY", (width, height))
+    card = _FakeCard(height, width)
+    grabber._device = grabber._capture = card
+    grabber._picture_size, grabber._stride, grabber._raw = (height, width), width, bytearray(height * width)
+    try:
+        grabber._write(0.0)  # programs the settings
+        got = [_take(grabber, 0.01 * k) for k in range(5)]
+        handed = [f.seq for f in got if f]
+        assert handed == ([0, 1, 2] if shots else [0, 1, 2, 3, 4])
+        grabber.trigger()
+        grabber._write(0.05)
+        got = [_take(grabber, 0.06 + 0.01 * k) for k in range(5)]
+        assert [f.seq for f in got if f] == ([5, 6, 7] if shots else [5, 6, 7, 8, 9])
+        assert grabber.dropped == 0 and grabber.frames == (6 if shots else 10)
+        last = [f for f in got if f][-1]  # (the driver double-buffers: older frames' words are reused)
+        assert last.pixels()[0, 0] == last.seq  # the frame's own picture (frame k: a constant grey k)
+    finally:
+        grabber._device = grabber._capture = None
+        card.close()
