@@ -196,13 +196,17 @@ def _pair(model, joints) -> str:
 
 
 def check_waypoints(t: Table, guard: GuardConfig | None, waypoints) -> None:
-    """ConfigError naming the first trajectory waypoint inside a zone or its margin."""
+    """ConfigError naming the first trajectory waypoint inside a zone or its margin, and listing
+    every other one (an operator fixes them all at once)."""
     if guard is None:
         return
-    scene = guard.scene
+    scene, bad = guard.scene, []
     for k, w in enumerate(waypoints):
         depth, piece = scene.depth(w)
         if depth < scene.margin:
             where = "inside" if depth < 0 else "within the margin of"
-            raise ConfigError(t.file, f"{t.key('waypoints')}[{k}]",
-                              f"a feasible configuration, but it is {where} zone {scene.zone_of_piece(piece).name!r}")
+            bad.append((k, f"{where} zone {scene.zone_of_piece(piece).name!r}"))
+    if bad:
+        (k, why), others = bad[0], bad[1:]
+        also = f" (also infeasible: {'; '.join(f'waypoints[{i}] {w}' for i, w in others)})" if others else ""
+        raise ConfigError(t.file, f"{t.key('waypoints')}[{k}]", f"a feasible configuration, but it is {why}{also}")

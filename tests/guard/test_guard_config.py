@@ -37,6 +37,9 @@ def zone(body: str, name="bad zone") -> str:
     (GOOD.replace("deceleration = 1000.0", "deceleration = nan"), "guard.deceleration", ["finite"]),
     (GOOD + '\n[trajectory]\nunit = "deg"\nwaypoints = [[0, 45, -180, 0, 45, 0], [0, 90, -120, 0, 0, 0]]\n',
      "trajectory.waypoints[1]", ["inside zone 'overhead_conveyor'"]),
+    (GOOD + '\n[trajectory]\nunit = "deg"\nwaypoints = [[0, 45, -180, 0, 45, 0], [0, 90, -120, 0, 0, 0], '
+            '[0, 45, -180, 0, 45, 0], [0, 90, -120, 0, 0, 0]]\n',
+     "trajectory.waypoints[1]", ["also infeasible: waypoints[3] inside zone 'overhead_conveyor'"]),
     (sim_config(CT, guard_section(), initial_q="[0.0, 1.5708, -2.0944, 0.0, 0.0, 0.0]"),
      "sim.initial_q", ["inside zone 'overhead_conveyor'"]),
 ])
