@@ -14,7 +14,6 @@ Deterministic (no noise): the numbers are reproducible to the last digit on one 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import tempfile
 from pathlib import Path
@@ -29,6 +28,7 @@ from rtctl.config import load_config  # noqa: E402
 from rtctl.control.base import Reference  # noqa: E402
 from rtctl.errors import ControllerError  # noqa: E402
 from rtctl.hal.joints import JointCommand, JointState  # noqa: E402
+from rtctl.jsonout import dumps  # noqa: E402
 from rtctl.model.dynamics import gravity  # noqa: E402
 from rtctl.runtime import build  # noqa: E402
 from rtctl.trajectory import JointLimits, through_waypoints  # noqa: E402
@@ -219,7 +219,7 @@ def _array(values) -> str:
 
 def _write(out: Path, name: str, rows, table) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    (out / f"{name}.json").write_text(json.dumps(rows, indent=1, default=str))
+    (out / f"{name}.json").write_text(dumps(rows, indent=1, default=str))
     print("\n".join(table))
     print()
 

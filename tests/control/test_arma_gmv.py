@@ -86,6 +86,31 @@ def test_non_finite_values_fail_the_controller_and_the_safety_stage_takes_over(t
     assert verdict == Verdict.FALLBACK and expected in stage.faults[-1].reason
 
 
+def test_saturated_torque_is_what_the_law_remembers():
+    """Anti-windup: a reference far ahead saturates u at the joint's limit, and u(k−1) of the next
+    update (30) is the saturated torque that was applied, not the law's unsaturated value —
+    checked against the law evaluated from outside with each memory."""
+    from rtctl.control.gmv import gmv_control
+
+    cfg, c = shipped()
+    state, ref, cmd = _one_tick_rig(c, cfg)
+    c.update(0.0, state, ref, cmd)  # primes the histories
+    ref.q[:] = state.position + 0.5  # half a radian ahead: far beyond what the torque limit can do
+    c.update(0.02, state, ref, cmd)
+    limit = cfg.model.tau_max[c.joints]
+    assert np.all(np.abs(cmd.tau_ff[c.joints]) == limit), cmd.tau_ff
+    np.testing.assert_array_equal(c.u_hist[0], cmd.tau_ff[c.joints])
+    # the next update from the saturated memory; the unsaturated one would give another torque
+    ref.q[:] = state.position + 1e-4
+    f, order, u_prev = c.filter, c.order, c.u_hist.copy()
+    y_prev = c.y_hist.copy()
+    c.update(0.04, state, ref, cmd)
+    for i, j in enumerate(c.joints):
+        expected = gmv_control(f.theta[:, i], f.r_hat[i], state.position[j], y_prev[:, i], u_prev[:, i], order,
+                               ref.q[j], c.joint_params[0, i], limit[i])
+        assert cmd.tau_ff[j] == pytest.approx(expected, rel=1e-9, abs=1e-9)
+
+
 def test_update_allocates_nothing():
     cfg, c = shipped()
     state, ref, cmd = _one_tick_rig(c, cfg)

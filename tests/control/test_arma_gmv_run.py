@@ -46,7 +46,14 @@ def test_shipped_job_tracks_the_paper_move(tmp_path):
     # rtctl identify fits the recorded run offline; the shoulder (the best-excited joint) comes out
     # as the double integrator the controller itself used, within 0.1
     ident = subprocess.run([sys.executable, "-m", "rtctl.cli", "identify", str(tmp_path / "run.msgpack"), "--period",
-                            "0.02", "--joints", "shoulder", "--p0", "1"], capture_output=True, text=True, timeout=120)
+                            "0.02", "--joints", "shoulder", "--p0", "1", "--json", str(tmp_path / "ident.json")],
+                           capture_output=True, text=True, timeout=120)
     assert ident.returncode == 0, ident.stderr
     row = [line.split() for line in ident.stdout.splitlines() if line.startswith("shoulder")][0]
     assert abs(float(row[1]) - 2.0) < 0.1 and abs(float(row[2]) + 1.0) < 0.1, ident.stdout
+    saved = json.loads((tmp_path / "ident.json").read_text(), parse_constant=_not_json)  # strict JSON
+    assert saved["order"] == {"na": 2, "nb": 2, "d": 1}
+
+
+def _not_json(constant):
+    raise ValueError(f"{constant} is not JSON")
