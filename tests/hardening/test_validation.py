@@ -51,11 +51,13 @@ def test_defect_06_a_trajectory_the_limits_refuse_exits_2_at_check(write_config,
     (("velocity_scale = 0.4", "velocity_scale = nan"), "trajectory.velocity_scale"),
     (("substeps = 4", "substeps = 4\nfriction = -inf"), "sim.friction"),
 ])
-def test_defect_10_non_finite_or_out_of_range_numbers_exit_2_naming_the_key(write_config, edit, key):
+def test_defect_10_non_finite_or_out_of_range_numbers_exit_2_naming_the_key(write_config, capsys, edit, key):
     from rtctl.cli import main
 
     path = write_config(BASE.replace(*edit))
     assert main(["check", str(path)]) == 2  # in-process: the same code as the subprocess, faster
+    err = capsys.readouterr().err
+    assert f"{path}: {key}" in err, err
 
 
 def test_defect_10_messages_name_the_key(write_config, capsys):

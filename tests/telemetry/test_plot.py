@@ -118,3 +118,35 @@ def test_the_panels_draw_the_recorded_data(tmp_path):
     np.testing.assert_array_equal(np.column_stack([line.get_ydata() for line in s]), tel["s"])
     estimates = next(ax for title, ax in axes.items() if title.startswith("adaptive estimates")).get_lines()
     np.testing.assert_array_equal(np.column_stack([line.get_ydata() for line in estimates]), tel["params_hat"])
+
+
+def test_the_gait_panels_draw_the_leg_automaton(tmp_path):
+    """A leg run: the automaton's state as a step line with one band per gate below it, and the
+    knee and ankle actions against the foot loads."""
+    pytest.importorskip("matplotlib")
+    from rtctl.plot import figure
+    from rtctl.telemetry import read
+
+    gates = ["h_f", "h_e", "k_f", "k_e", "toe", "heel", "h_d1", "h_d2"]
+    schema = {"t": ((), "f8"), "leg_state": (1, "f8"), "leg_gates": (8, "u1"), "leg_actions": (2, "u1"),
+              "leg_channels": (5, "f8")}
+    rec = Recorder(tmp_path / "leg.rtt", schema, {"leg_gates_labels": gates}, wait_when_full=True)
+    cycle = [1, 2, 3, 4, 1, 5, 1, 6]
+    for k in range(400):
+        rec.row["t"][()] = k / 100
+        rec.row["leg_state"][:] = cycle[(k // 10) % 8]
+        rec.row["leg_gates"][:] = [(k >> b) & 1 for b in range(8)]
+        rec.row["leg_actions"][:] = [k % 4, (k // 4) % 4]
+        rec.row["leg_channels"][:] = [0.0, 0.0, 0.0, 1.0, 0.5]
+        rec.commit()
+    rec.close()
+    tel = read(tmp_path / "leg.rtt")
+    axes = {ax.get_title(): ax for ax in figure(tmp_path / "leg.rtt").axes}
+    gait = axes["gait phases: automaton state (and gate bits below)"]
+    (state,) = gait.get_lines()
+    np.testing.assert_array_equal(state.get_ydata(), tel["leg_state"][:, 0])
+    assert len(gait.collections) == 8 and [t.get_text() for t in gait.texts] == gates  # a band per gate
+    actions = axes["actions (knee, ankle) and foot loads (toe, heel)"]
+    knee, ankle = actions.get_lines()[:2]
+    np.testing.assert_array_equal(knee.get_ydata(), tel["leg_actions"][:, 0])
+    np.testing.assert_allclose(ankle.get_ydata(), tel["leg_actions"][:, 1] + 0.05)
