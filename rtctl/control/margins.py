@@ -1,5 +1,5 @@
 """Stability margins of Slotine–Li adaptive control sampled at period T behind a wire that
-delays the measurement by d periods (docs/cstar_slotine_li.md, "Delay").
+delays the measurement by d periods (docs/cstar_delay.md).
 
 Along a trajectory, with the regressor Y and the inertia H frozen at a point, the closed loop
 of τ = Y π̂ − K_D s, dπ̂/dt = −P Yᵀ s is (s = q̇ − q̇_r, π̃ = π̂ − π, w = Y π̃ the torque error

@@ -1,4 +1,4 @@
-"""Event table → synthesised asynchronous sequential circuit → emulation (DESIGN: logic/).
+"""Event table → synthesised asynchronous sequential circuit → emulation (docs/leg_automaton.md).
 
 The prosthetic-leg controller of the leg paper, derived by program: :mod:`table` (the event
 table as data), :mod:`flow` (flow table and guards), :mod:`assign` (race-free state
