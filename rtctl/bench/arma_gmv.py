@@ -28,11 +28,9 @@ def _chain(n: int) -> Model:
 
 
 @kernel
-def _kernel_loop(count, iset, fset, jp, joints, pos, rq, rqd, rqdd, theta, P, drift, signals, fade, yh, uh, scratch,
-                 tau):
+def _kernel_loop(count, iset, position, ref, filter_state, work, tau):
     for _ in range(count):
-        arma_gmv_kernel(iset, fset, jp, joints, pos, rq, rqd, rqdd, theta, P, drift, signals, fade, yh, uh, scratch,
-                        tau)
+        arma_gmv_kernel(iset, position, ref, filter_state, work, tau)
 
 
 def _controller(n: int):
@@ -55,9 +53,7 @@ def _time_update(n: int, repeats: int) -> dict:
         c.update(clock[0], state, ref, cmd)
 
     tick_us = median_us(tick, repeats, BATCH)
-    f = c.filter
-    args = (c.iset, c.fset, c.joint_params, c.joints, state.position, ref.q, ref.qd, ref.qdd, f.theta, f.P, f.drift,
-            f.signals, f.fade, c.y_hist, c.u_hist, c.scratch, cmd.tau_ff)
+    args = (c.iset, state.position, ref.packed, c.filter.state, c.work, cmd.tau_ff)
     _kernel_loop(1, *args)
     count, samples = 2000, []
     for _ in range(7):

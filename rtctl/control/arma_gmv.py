@@ -2,7 +2,8 @@
 noise" statistics the Sage–Husa filter identifies every sample (:mod:`rtctl.estimation`),
 and the GMV law (:mod:`rtctl.control.gmv`) on the current estimates. docs/arma_kalman.md.
 
-Each update (every ``divisor`` ticks: T = divisor / rate), per owned joint i, in one compiled call:
+Each update (every ``divisor`` ticks: T = divisor / rate), per owned joint i, in one compiled call
+(six array arguments: numba's dispatcher costs about 0.1 µs per argument, a third of the update):
 
 1. y(k) = q_i; the filter steps with h(k) from the histories (skipped on the first update
    after a reset, which only starts the histories: y from the measured position, u = 0);
@@ -24,17 +25,19 @@ import math
 
 import numpy as np
 
-from rtctl.compiled import kernel
+from rtctl.compiled import kernel, leaf
 from rtctl.control.base import Controller
 from rtctl.control.gmv import gmv_law, gmv_phi
 from rtctl.errors import ControllerError
 from rtctl.estimation.arx import ArxOrder, push_history, regressor_into
-from rtctl.estimation.sage_husa import QUANTITIES, SWITCH_NAMES, SageHusa, first_nonfinite, sage_husa_step
+from rtctl.estimation.sage_husa import (QUANTITIES, SWITCH_NAMES, SageHusa, first_nonfinite, sage_husa_step,
+                                        state_views)
 
-# int settings: the filter's switches (0..4), then
-NA, D, PRIMED = 5, 6, 7
+# int settings: the filter's switches (0..4), then the order, then the owned joints
+NA, NB, D, PRIMED, JOINTS = 5, 6, 7, 8, 9
 # float settings
 LAM, R_MIN, HORIZON = range(3)
+N_FLOAT_SETTINGS = 3
 # per-joint rows
 RHO, U_MAX = range(2)
 # scratch rows
@@ -43,13 +46,30 @@ FAILURES = QUANTITIES + ("torque u", "measured position y", "reference y*")
 _STRIDE = 16
 
 
+@leaf
+def work_views(work, m, na, memory, width):
+    """(fset, joint_params, y_hist, u_hist, scratch) as views of the controller's ``work``
+    array: float settings, per-joint ρ and u_max (2, m), the histories (na, m) and
+    (memory, m), scratch rows (4, width)."""
+    a = N_FLOAT_SETTINGS
+    b = a + 2 * m
+    c = b + na * m
+    e = c + memory * m
+    return (work[:a], work[a:b].reshape((2, m)), work[b:c].reshape((na, m)), work[c:e].reshape((memory, m)),
+            work[e:e + 4 * width].reshape((4, width)))
+
+
 @kernel
-def arma_gmv_kernel(iset, fset, joint_params, joints, position, ref_q, ref_qd, ref_qdd, theta, P, drift, signals,
-                    fade, y_hist, u_hist, scratch, tau):
-    """One controller update over the owned joints; returns 0 or 1 + 16·(local joint) + the
-    index of the failing quantity in :data:`FAILURES` (nothing written for that joint then)."""
-    na, d = iset[NA], iset[D]
-    p = theta.shape[0]
+def arma_gmv_kernel(iset, position, ref, filter_state, work, tau):
+    """One controller update over the owned joints (``iset[JOINTS:]``; ``ref``: rows q, q̇, q̈);
+    returns 0 or 1 + 16·(local joint) + the index of the failing quantity in :data:`FAILURES`
+    (nothing written for that joint then)."""
+    na, nb, d = iset[NA], iset[NB], iset[D]
+    joints = iset[JOINTS:]
+    m, p = joints.shape[0], na + nb + 1
+    theta, P, drift, signals, fade = state_views(filter_state, m, p)
+    fset, joint_params, y_hist, u_hist, scratch = work_views(work, m, na, d + nb, max(p, d))
+    ref_q, ref_qd, ref_qdd = ref[0], ref[1], ref[2]
     h, Ph, old, y_pred = scratch[H_ROW, :p], scratch[PH_ROW, :p], scratch[OLD_ROW, :p], scratch[PRED_ROW]
     tau_h = fset[HORIZON]
     for i in range(joints.shape[0]):
@@ -95,19 +115,21 @@ class ArmaGmv(Controller):
         self.filter = SageHusa(m, order.p, lam=lam, theta0=theta0, P0=P0, r0=r0, R0=R0, q0=q0, Q0=Q0, adapt=adapt,
                                R_min=R_min, Q_min=Q_min, forget_covariance=forget_covariance)
         f = self.filter
-        self.joint_params = np.zeros((2, m))
+        width = max(order.p, order.d)
+        self.work = np.zeros(N_FLOAT_SETTINGS + (2 + order.na + order.memory) * m + 4 * width)
+        self.fset, self.joint_params, self.y_hist, self.u_hist, self.scratch = work_views(
+            self.work, m, order.na, order.memory, width)
         rho = np.broadcast_to(np.asarray(rho, dtype=float), (m,))
         if not np.all(rho > 0) or not np.all(np.isfinite(rho)):
             raise ValueError(f"rho must be finite and > 0, got {rho.tolist()}")
         self.joint_params[RHO] = rho
         tau_max = model.tau_max[self.joints]
         self.joint_params[U_MAX] = np.where(np.isfinite(tau_max), tau_max, 1e300)
-        self.iset = np.zeros(8, dtype=np.int64)
+        self.iset = np.zeros(JOINTS + m, dtype=np.int64)
         self.iset[:5] = f.switches
-        self.iset[NA], self.iset[D] = order.na, order.d
-        self.fset = np.array([f.lam, f.R_min, 0.0])
-        self.y_hist, self.u_hist = np.zeros((order.na, m)), np.zeros((order.memory, m))
-        self.scratch = np.zeros((4, max(order.p, order.d)))
+        self.iset[NA], self.iset[NB], self.iset[D] = order.na, order.nb, order.d
+        self.iset[JOINTS:] = self.joints
+        self.fset[LAM], self.fset[R_MIN] = f.lam, f.R_min
         self._t_prev = math.nan
         self.internals = {"a_hat": f.theta[:order.na], "b_hat": f.theta[order.na:], "r_hat": f.signals[0],
                           "R_hat": f.signals[1], "eps": f.signals[2], "u": self.u_hist[0]}
@@ -151,9 +173,7 @@ class ArmaGmv(Controller):
         f = self.filter
         self.fset[HORIZON] = self.order.d * (t - self._t_prev) if self._t_prev == self._t_prev else 0.0
         self._t_prev = t
-        code = arma_gmv_kernel(self.iset, self.fset, self.joint_params, self.joints, state.position, ref.q, ref.qd,
-                               ref.qdd, f.theta, f.P, f.drift, f.signals, f.fade, self.y_hist, self.u_hist,
-                               self.scratch, command.tau_ff)
+        code = arma_gmv_kernel(self.iset, state.position, ref.packed, f.state, self.work, command.tau_ff)
         if code:
             i, what = divmod(code - 1, _STRIDE)
             joint = self.model.joint_names[self.joints[i]]

@@ -17,9 +17,8 @@ class Reference:
     """Desired joint motion for this tick: position, velocity, acceleration (preallocated)."""
 
     def __init__(self, n: int):
-        self.q = np.zeros(n)
-        self.qd = np.zeros(n)
-        self.qdd = np.zeros(n)
+        self.packed = np.zeros((3, n))  # q, q̇, q̈ as rows: one argument for a compiled caller
+        self.q, self.qd, self.qdd = self.packed
 
 
 class Controller:

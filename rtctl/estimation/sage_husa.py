@@ -31,14 +31,16 @@ forgetting of recursive least squares, so that the coefficients themselves track
 
 Storage is channel-last (Pinocchio's model/data split: a :class:`SageHusa` owns everything
 preallocated): θ̂ is (p, m), P is (m, p, p), q̂, Q̂ and Q_min are the rows of ``drift`` (3, p,
-m), the statistics are rows of ``signals`` (4, m): r̂, R̂, ε, y − hᵀθ̂(k+1|k). One compiled call
-updates one channel (:func:`sage_husa_step`) and allocates nothing.
+m), the statistics are rows of ``signals`` (4, m): r̂, R̂, ε, y − hᵀθ̂(k+1|k), and ``fade`` (m)
+holds λᵏ — all views of one contiguous ``state`` array in that order (:func:`state_views`), so
+that a compiled caller takes the whole filter as one argument. One compiled call updates one
+channel (:func:`sage_husa_step`) and allocates nothing.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from rtctl.compiled import kernel
+from rtctl.compiled import kernel, leaf
 
 # switches (indices into the int64 ``switches`` array)
 ADAPT_R, ADAPT_RCOV, ADAPT_Q, ADAPT_QCOV, FORGET_COV = range(5)
@@ -153,6 +155,23 @@ QUANTITIES = ("coefficient estimate θ̂", "covariance P", "noise mean r̂", "no
               "drift mean q̂", "drift covariance Q̂")
 
 
+def state_size(m: int, p: int) -> int:
+    """Length of the ``state`` array of ``m`` channels of ``p`` coefficients."""
+    return p * m + m * p * p + 3 * p * m + 4 * m + m
+
+
+@leaf
+def state_views(state, m, p):
+    """(θ̂, P, drift, signals, fade) as views of ``state`` (see the module docstring); also
+    from Python."""
+    a = p * m
+    b = a + m * p * p
+    c = b + 3 * p * m
+    d = c + 4 * m
+    return (state[:a].reshape((p, m)), state[a:b].reshape((m, p, p)), state[b:c].reshape((3, p, m)),
+            state[c:d].reshape((4, m)), state[d:d + m])
+
+
 def _per_channel(value, m: int, p: int | None, name: str) -> np.ndarray:
     """A number, p numbers (every channel) or m × p numbers → (p, m); without p: → (m,)."""
     a = np.asarray(value, dtype=float)
@@ -192,8 +211,9 @@ class SageHusa:
         self.theta0 = _per_channel(theta0, m, p, "theta0")
         P0d = _per_channel(P0, m, p, "P0")
         self.q0, self.Q0 = _per_channel(q0, m, p, "q0"), _per_channel(Q0, m, p, "Q0")
-        self.drift = np.zeros((3, p, m))  # q̂, Q̂ (diagonal), Q_min: one array for compiled callers
-        self.q_hat, self.Q_hat, self.Q_min = self.drift
+        self.state = np.zeros(state_size(m, p))  # everything that changes, for compiled callers
+        self.theta, self.P, self.drift, self.signals, self.fade = state_views(self.state, m, p)
+        self.q_hat, self.Q_hat, self.Q_min = self.drift  # q̂, Q̂ (diagonal), Q_min
         self.Q_min[:] = _per_channel(Q_min, m, p, "Q_min")
         self.r0, self.R0 = _per_channel(r0, m, None, "r0"), _per_channel(R0, m, None, "R0")
         for name, arr in (("theta0", self.theta0), ("P0", P0d), ("q0", self.q0), ("Q0", self.Q0),
@@ -210,9 +230,6 @@ class SageHusa:
         for name in adapt:
             self.switches[SWITCH_NAMES.index(name)] = 1
         self.switches[FORGET_COV] = bool(forget_covariance)
-        self.theta, self.P = self.theta0.copy(), self.P0.copy()
-        self.signals = np.zeros((4, m))
-        self.fade = np.ones(m)  # λᵏ per channel
         self._Ph, self._old = np.zeros(p), np.zeros(p)
         self.reset()
 

@@ -131,7 +131,7 @@ def test_update_allocates_nothing():
         after, peak = tracemalloc.get_traced_memory()
     finally:
         tracemalloc.stop()
-    # nothing kept; the transient peak is numba's dispatcher boxing the 17 arguments of the one call
+    # nothing kept; the transient peak is numba's dispatcher boxing the arguments of the one call
     # (≈ 0.9 kB, freed at return) — an array the update allocated would keep growing the total
     assert after - before <= 64 and peak - before < 2048, (after - before, peak - before)
 
