@@ -12,7 +12,7 @@ from exact import mitred_offset, segment_meets_polygon
 from guard_helpers import ROOT
 from rtctl.config import load_config
 from rtctl.guard import Polygon, Scene, Zone, plan_path
-from rtctl.guard.kernels import NO_ENTRY, clearances, segment_entry
+from rtctl.guard.kernels import NO_ENTRY, clearance, clearances, segment_entry
 from test_zones import convex
 
 # 16-connected grid: the neighbour directions are at most atan(1/2) ≈ 26.6° apart, so a grid path
@@ -125,9 +125,11 @@ def test_random_scenes_against_a_fine_grid(polygons, seed):
     scene = Scene(zones, [-2.0, -2.0], [2.0, 2.0], margin=0.05)
     rng = np.random.default_rng(seed)
     a, b = rng.uniform(-2, 2, (2, 2))
+    if min(clearance(*scene.tables(), q)[0] for q in (a, b)) < scene.margin:
+        return  # an end within the margin: the planner leaves it with a shrunk margin, the grid cannot
     plan = plan_path(scene, a, b)
     if not plan.found:
-        return  # an end inside a zone, or no way around: the other tests cover those answers
+        return  # no way around: the other tests cover that answer
     check_against_grid(scene, a, b, (0, 1), h=0.02)
 
 
