@@ -38,13 +38,14 @@ from rtctl.tomltable import Table, load_toml
 
 MIN_RATE_HZ = 1.0  # the loop's slowest rate: a tick is at most 1 s apart
 MIN_REALTIME_FACTOR = 0.01
+SPIN_US = 200.0  # the default spin before each deadline (rtctl/timing/busy.py: why not more)
 
 
 @dataclass(frozen=True)
 class LoopConfig:
     rate_hz: float = 1000.0
     overrun_limit: int = 50  # consecutive overruns → controlled safe stop
-    spin_us: float = 200.0  # sleep until deadline − spin, then spin
+    spin_us: float = SPIN_US  # sleep until deadline − spin, then spin (a quarter period at most by default)
     realtime_factor: float = 1.0  # 0 = as fast as possible (simulated devices only)
     rt: RtSettings = field(default_factory=lambda: RtSettings(gc_freeze=True))  # GC frozen while running
 
@@ -186,13 +187,19 @@ def _loop(t: Table | None) -> LoopConfig:
                         timer_slack_ns=rt_t.int("timer_slack_ns", 0, min=0, max=MAX_TIMER_SLACK_NS),
                         gc_freeze=rt_t.bool("gc_freeze", True))
         rt_t.done()
+    rate_hz = t.float("rate_hz", 1000.0, positive=True, min=MIN_RATE_HZ, max=100_000.0)
     cfg = LoopConfig(
-        rate_hz=t.float("rate_hz", 1000.0, positive=True, min=MIN_RATE_HZ, max=100_000.0),
+        rate_hz=rate_hz,
         overrun_limit=t.int("overrun_limit", 50, min=1, max=1_000_000),
-        spin_us=t.float("spin_us", 200.0, min=0.0, max=1e6 / MIN_RATE_HZ),
+        spin_us=t.float("spin_us", min(SPIN_US, 0.25e6 / rate_hz), min=0.0, max=1e6 / MIN_RATE_HZ),
         realtime_factor=realtime_factor(t.float("realtime_factor", 1.0), t.error, "realtime_factor"),
         rt=rt,
     )
+    if cfg.spin_us * 1e-6 > cfg.period / 2:
+        # a core kept busy nearly all the time is stopped by Linux (rtctl/timing/busy.py)
+        raise t.error("spin_us", f"at most half the period ({cfg.period * 5e5:g} µs at {cfg.rate_hz:g} Hz), got "
+                                 f"{cfg.spin_us:g}: the loop would keep its core busy near the share Linux "
+                                 "gives SCHED_FIFO threads and be stopped for up to 50 ms each time it crosses it")
     t.done()
     return cfg
 

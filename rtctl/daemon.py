@@ -40,7 +40,7 @@ from rtctl.model.dynamics import gravity as gravity_of
 from rtctl.runtime import build
 from rtctl.safety import SafetyStage, Verdict
 from rtctl.tick import Tick
-from rtctl.timing import PHASES, MonotonicClock, Ticker, apply_rt
+from rtctl.timing import PHASES, KnobStatus, MonotonicClock, Ticker, apply_rt, rt_budget
 from rtctl.trajectory import JointLimits, hold, retarget, through_waypoints
 from rtctl.warmup import Precompile
 
@@ -125,6 +125,8 @@ class Daemon:
             compiling = Precompile(self._warm_up_groups()).start()  # before the RT knobs: workers run as usual
             for report in apply_rt(self._rt_settings(), enforce=self.args.enforce_rt):
                 log.info("rt knob", **report.as_dict())
+                if report.knob == "sched_fifo" and report.status is KnobStatus.APPLIED:
+                    self.ticker.busy.limit = rt_budget()  # Linux stops a FIFO thread over it
             if self._bring_up(compiling):
                 self._loop(server)
             self._fault_if_latched()

@@ -18,6 +18,11 @@ def format_summary(summary: dict) -> str:
     rate, ratio = timing.get("achieved_rate_hz"), timing.get("realtime_ratio")
     lines.append(f"  ticks {timing.get('ticks', 0)}   overruns {timing.get('overruns', 0)}   "
                  f"rate {_num(rate, '.1f')} Hz   {_num(ratio, '.2f')}× real time")
+    busy = timing.get("core_busy")
+    if busy:
+        budget = f"   (SCHED_FIFO budget {_percent(busy.get('budget'))})" if busy.get("budget") is not None else ""
+        lines.append(f"  core busy {_percent(busy.get('mean'))} mean, {_percent(busy.get('max'))} "
+                     f"worst second{budget}")
 
     rows = [("wake lateness", timing.get("wake_lateness_us") or {})]
     compute = timing.get("compute_us") or {}
@@ -46,6 +51,10 @@ def format_summary(summary: dict) -> str:
     if tele:
         lines.append(f"  telemetry {tele['path']} ({tele['rows']} rows, {tele['dropped_rows']} dropped)")
     return "\n".join(lines)
+
+
+def _percent(value) -> str:
+    return _DASH if value is None else f"{100 * value:.0f} %"
 
 
 def _milli(value):

@@ -81,8 +81,9 @@ def check_rt_throttling(runtime_us: str | None, period_us: str | None) -> Check:
     if runtime_us.strip() == "-1":
         return Check("rt_throttling", WARN, "off: a runaway SCHED_FIFO task can freeze a core for good",
                      "fine on a dedicated machine; keep a watchdog")
-    return Check("rt_throttling", OK, f"RT tasks get {runtime_us.strip()} µs per {(period_us or '?').strip()} µs "
-                 "(the loop sleeps every tick, so this only stops a runaway)")
+    return Check("rt_throttling", OK, f"RT tasks get {runtime_us.strip()} µs per {(period_us or '?').strip()} µs: "
+                 "a loop that keeps its core busier (compute + spin_us) is stopped for the rest of the second",
+                 "keep spin_us small; the run's summary reports core_busy")
 
 
 def check_timer_slack(slack_ns: int | None) -> Check:

@@ -28,6 +28,7 @@ from fractions import Fraction
 
 import structlog
 
+from rtctl.timing.busy import BusyMeter
 from rtctl.timing.clock import MonotonicClock
 from rtctl.timing.stats import LoopStats
 
@@ -55,6 +56,8 @@ class Ticker:
     runs on the wall clock, f > 0 makes simulated time run f × real time (tick k due at
     ``start + k·period/f``), 0 never sleeps. ``clock``: anything with ``now_ns()`` and
     ``sleep_until_ns()`` (default :class:`MonotonicClock` with ``spin_margin_ns``).
+    ``busy``: how busy the loop keeps its core (:class:`~rtctl.timing.busy.BusyMeter`; paced
+    modes only — lock-step never sleeps).
     """
 
     def __init__(
@@ -66,6 +69,7 @@ class Ticker:
         spin_margin_ns: int = 200_000,
         clock=None,
         phases=PHASES,
+        busy: BusyMeter | None = None,
     ):
         if period_ns <= 0:
             raise ValueError("period_ns must be > 0")
@@ -79,6 +83,7 @@ class Ticker:
         self.clock = clock if clock is not None else MonotonicClock(spin_margin_ns)
         self.phases = tuple(phases)
         self.stats = LoopStats(self.phases)
+        self.busy = busy if busy is not None else BusyMeter()
         # tick k is due at start + k·period·den // num: exact integers, no drift
         f = Fraction(self.realtime_factor).limit_denominator(10**9)
         if f == 0 < self.realtime_factor:
@@ -105,6 +110,7 @@ class Ticker:
         """Anchor the grid: tick 0 is due now."""
         self._start_ns = self._wake_ns = self._end_ns = self.clock.now_ns()
         self._next_tick = 0
+        self.busy.start(self._start_ns)
 
     def wait(self) -> int:
         """Sleep until the next tick's deadline (not in lock-step); return its grid index."""
@@ -151,6 +157,7 @@ class Ticker:
         k_next = self.tick + 1
         if self._paced:
             self.stats.record(self.lateness_ns, self.phase_ns, end - self._wake_ns)
+            self.busy.sample(end)
             next_deadline = self._start_ns + k_next * self._grid_den // self._grid_num
             if end > next_deadline:
                 # the first grid point not yet past: m with deadline(m) ≥ end, i.e. m·den/num ≥ end − start
@@ -201,4 +208,5 @@ class Ticker:
             wall_time_s=(end - self._start_ns) / 1e9,
             period_s=self.period_ns / 1e9,
             realtime_factor=self.realtime_factor,
-        ) | {"safe_stop_requested": self.stop_requested}
+        ) | {"safe_stop_requested": self.stop_requested,
+             "core_busy": self.busy.summary(self._end_ns) if self._paced and self.tick >= 0 else None}

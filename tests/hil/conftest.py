@@ -1,12 +1,13 @@
 import pytest
 
-# The HIL tests close a real-time loop across two processes on whatever machine runs them. This
-# shared 2-core VM now and then stops a process for several milliseconds even at SCHED_FIFO (wake
-# lateness p99 from 3 µs to 5 ms between otherwise identical runs); a run hit by such a stall
-# overruns or misses replies, and the closed loop loses accuracy. Only such a run is retried: a
-# bound checked under hil_helpers.unless_stalled fails as VmStall when the run's own record shows
-# the stall (overruns, late wake-ups, missing replies), and as a plain failure — never retried —
-# when the run was quiet. The exact fault-timing checks are not under unless_stalled at all.
+# The HIL tests close a real-time loop across two processes on whatever machine runs them. A
+# shared VM can stop a process for milliseconds now and then; a run hit by such a stall overruns
+# or misses replies, and the closed loop loses accuracy. Only such a run is retried: a bound
+# checked under hil_helpers.unless_stalled fails as VmStall when the run's own record shows the
+# stall (overruns, late wake-ups, missing replies), and as a plain failure — never retried — when
+# the run was quiet. The exact fault-timing checks are not under unless_stalled at all. (Most of
+# the 27–49 ms "VM stalls" seen here were Linux stopping a SCHED_FIFO loop that spun 75–80 % of
+# each period: see rtctl/timing/busy.py; the shipped configs now spin 0.2–0.3 ms.)
 HIL_RERUNS = 3
 
 

@@ -15,7 +15,7 @@ def states(tel) -> list[int]:
 
 def leg_variant(tmp_path):
     """configs/leg_hil.toml at 250 Hz (the plant steps one period per command), table path absolute."""
-    path = variant(tmp_path, "leg_hil.toml", rate_hz="250.0", spin_us="800.0")
+    path = variant(tmp_path, "leg_hil.toml", rate_hz="250.0")
     path.write_text(path.read_text().replace('table = "leg/table3.toml"', f'table = "{CONFIGS}/leg/table3.toml"'))
     return path
 

@@ -48,7 +48,9 @@ def test_on_a_terminal_the_run_ends_with_a_summary_table(write_config, tmp_path)
     table = text[text.index("run summary"):].splitlines()
     assert table[0].startswith("run summary — duration reached (exit 0)")
     assert table[1].split()[0] == "ticks" and int(table[1].split()[1]) >= 300
-    head = table[2].split()
+    busy = table[2].split()  # the loop's share of its core: its compute and spin, at most the wall time
+    assert busy[:2] == ["core", "busy"] and 0 < float(busy[2]) <= 100 and busy[3] == "%"
+    head = table[3].split()
     assert head == ["µs", "p50", "p99", "max"]
     compute = next(line for line in table if line.strip().startswith("compute tick")).split()
     assert float(compute[-1]) >= float(compute[-2]) >= float(compute[-3]) > 0  # max ≥ p99 ≥ p50

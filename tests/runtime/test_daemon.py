@@ -96,6 +96,8 @@ def test_sigterm_keeps_every_recorded_tick(write_config, daemon, tmp_path):
     assert run.rows == summary["timing"]["ticks"] == summary["telemetry"]["rows"] > 500
     assert np.all(np.diff(run["t"]) > 0)
     assert summary["stop_reason"] == "signal SIGTERM"
+    busy = summary["timing"]["core_busy"]  # the loop's thread: its compute and spin, never more than the wall time
+    assert 0 < busy["mean"] <= 1 and 0 < busy["max"] <= 1
 
 
 def test_as_fast_as_possible_is_bit_for_bit_reproducible(write_config, tmp_path):
