@@ -25,4 +25,9 @@ def test_arma_gmv_runs_the_paper_move_over_socketcand(tmp_path, hil_sim):
           f"overruns {summary['timing']['overruns']}")
     for name in ("a_hat", "b_hat", "r_hat", "u"):
         assert np.all(np.isfinite(telemetry[name]))
-    assert np.all(np.abs(np.degrees(q_end - goal)) < 2.0)  # it got there and held
+    # it got there and held: the median of the last 0.5 s (250 ticks). On this VM every run overruns
+    # 20–210 times (ms-late wake-ups at 500 Hz) and the 50 Hz controller then rings for a while —
+    # the last sample was up to 3.2° off in 2 of 12 runs (2026-12-01) — while the hold's median was
+    # within 0.23° in all 12: the bound is 3× that
+    hold = np.median(telemetry["q"][-250:], axis=0)
+    assert np.all(np.abs(np.degrees(hold - goal)) < 0.7), np.degrees(hold - goal)
