@@ -49,3 +49,27 @@ def test_the_empty_loop_bench_returns_a_full_summary():
     result = {"rate_hz": 2000, "seconds": 0.05, "spin_margin_us": 200, "rt": [], "record_us": 1.0,
               "tick_overhead_us": 3.0, "paced": s, "loadavg_1min": 0.5, "steal_ms": None}
     assert "wake lateness" in format_table(result)
+
+
+def test_the_real_clock_sleeps_on_the_monotonic_clock_and_spins_only_the_margin(monkeypatch):
+    """One absolute sleep on CLOCK_MONOTONIC to deadline − margin, then the spin: a clock that
+    spun the whole way (or slept on another clock, returning at once) would keep its core busy
+    and run into Linux's SCHED_FIFO budget (rtctl/timing/busy.py)."""
+    clock = MonotonicClock(200_000)
+    calls = []
+
+    def nanosleep(clock_id, flags, ts_ref, remain):
+        ts = ts_ref._obj
+        wake = ts.tv_sec * 1_000_000_000 + ts.tv_nsec
+        calls.append((clock_id, flags, wake))
+        time.sleep(max(0, wake - time.monotonic_ns()) / 1e9)
+        return 0
+
+    monkeypatch.setattr(clock, "_nanosleep", nanosleep)
+    deadline = time.monotonic_ns() + 30_000_000
+    clock.sleep_until_ns(deadline)
+    assert calls == [(time.CLOCK_MONOTONIC, 1, deadline - 200_000)]  # TIMER_ABSTIME = 1 (<time.h>)
+    assert time.monotonic_ns() >= deadline
+    calls.clear()
+    clock.sleep_until_ns(time.monotonic_ns() + 100_000)  # within the margin: spin only
+    assert calls == []

@@ -95,3 +95,14 @@ def test_summary_reports_rates_and_overruns_in_microseconds():
     assert out["realtime_ratio"] == 0.5
     assert out["wake_lateness_us"]["p50"] == pytest.approx(2.0, rel=RES)
     assert out["compute_us"]["tick"]["max"] == 5.0
+
+
+def test_copy_counts_takes_exactly_one_rows_histogram():
+    stats = LoopStats(("a", "b"))
+    for x in (1_000, 50_000, 50_000, 2_000_000):
+        stats.record(x, [x // 2, 7], x)
+    out = np.full(N_BUCKETS, -1, dtype=np.int64)
+    stats.copy_counts("wake_lateness", out)
+    assert out.sum() == 4 and out[bucket_index(50_000)] == 2 and out[bucket_index(2_000_000)] == 1
+    stats.copy_counts("a", out)
+    assert out.sum() == 4 and out[bucket_index(25_000)] == 2

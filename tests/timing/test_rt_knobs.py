@@ -117,3 +117,34 @@ def test_zero_values_leave_the_knobs_alone_and_any_object_with_the_fields_will_d
         priority, cpus, mlockall, timer_slack_ns, gc_freeze = 0, (), False, 0, False
 
     assert {r.status for r in apply_rt(LoopRt(), enforce=True)} == {KnobStatus.OFF}
+
+
+def test_sched_fifo_takes_both_ends_of_the_priority_range_and_nothing_beyond(monkeypatch):
+    """In-process with the kernel call replaced (the runner must not become SCHED_FIFO)."""
+    from rtctl.timing import rt
+
+    lo, hi = os.sched_get_priority_min(os.SCHED_FIFO), os.sched_get_priority_max(os.SCHED_FIFO)
+    asked = []
+    monkeypatch.setattr(os, "sched_setscheduler", lambda pid, policy, param: asked.append(param.sched_priority))
+    monkeypatch.setattr(os, "sched_getparam", lambda pid: os.sched_param(asked[-1]))
+    for priority in (lo, hi):
+        assert rt._fifo(priority).status is KnobStatus.APPLIED
+    for priority in (lo - 1, hi + 1):
+        report = rt._fifo(priority)
+        assert report.status is KnobStatus.FAILED and f"{lo}..{hi}" in report.detail
+    assert asked == [lo, hi]
+
+
+def test_a_refused_fifo_blames_the_soft_rtprio_limit_when_it_is_too_low(monkeypatch):
+    from rtctl.timing import rt
+
+    def refuse(pid, policy, param):
+        raise PermissionError
+
+    monkeypatch.setattr(os, "sched_setscheduler", refuse)
+    monkeypatch.setattr(rt, "has_capability", lambda bit: False)
+    monkeypatch.setattr(rt.resource, "getrlimit", lambda which: (10, 99))  # soft 10, hard 99
+    report = rt._fifo(80)
+    assert report.status is KnobStatus.NOT_PERMITTED and report.detail.startswith("rtprio limit 10 < 80")
+    monkeypatch.setattr(rt.resource, "getrlimit", lambda which: (99, 99))
+    assert "cgroup" in rt._fifo(80).detail  # the limit allows it: the kernel refused for another reason
