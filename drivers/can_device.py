@@ -72,15 +72,20 @@ class CanJointGroup(JointGroup):
         return True
 
     def _end_write(self, t: float, missing: int, answered) -> Status:
-        """The end of a ``write`` whose frames went out: counters, since when each joint has been
-        unanswered (``answered``: a mask), the status."""
+        """The end of a ``write`` whose frames went out and whose replies came (or not): the
+        counters, :meth:`_answered`, the status."""
         self.counters["cycles"] += 1
+        self._answered(t, missing, answered)
+        return Status.DEACTIVATE if self._drives_off is not None else Status.OK
+
+    def _answered(self, t: float, missing: int, answered) -> None:
+        """The replies to the commands of loop time ``t``: counters, since when each joint has
+        been unanswered (``answered``: a mask), the state's stamp."""
         if missing:
             self.counters["missing_replies"] += missing
             np.copyto(self._missing_since, t, where=~answered & np.isnan(self._missing_since))  # (rare path)
         np.copyto(self._missing_since, self._nans, where=answered)
         self._stamp = t
-        return Status.DEACTIVATE if self._drives_off is not None else Status.OK
 
     def _receive(self, pending: int, timeout: float, take) -> int:
         """Receive until ``take(msg)`` — how many of the awaited frames ``msg`` was — has counted

@@ -3,6 +3,8 @@ RPDOs packed into preallocated messages, one SYNC, and every received frame rout
 into preallocated arrays — TPDO values, EMCY codes, heartbeat times and NMT states."""
 from __future__ import annotations
 
+import time
+
 import can
 import numpy as np
 
@@ -21,6 +23,7 @@ class Cia402Frames:
         self._fresh = np.zeros(n, dtype=bool)  # every TPDO of the drive arrived in the last cycle
         self._got = [0] * n  # per drive: bit k set when TPDO k arrived in this cycle
         self._awaited = None  # the drives this cycle waits for (a mask; None: all)
+        self._replies_by = 0.0  # time.monotonic() until which the TPDOs of the last SYNC are awaited
         self._all_tpdos = (1 << len(layout.tpdos)) - 1
         self._emcy = np.zeros(n, dtype=np.int64)  # active EMCY code per drive (0: none)
         self._emcy_active = False
@@ -64,34 +67,45 @@ class Cia402Frames:
 
     # -- one SYNC cycle -----------------------------------------------------------------------
     def _cycle(self, timeout: float, rows=None) -> int:
-        """Take what arrived since the last cycle, send the RPDOs and a SYNC, collect the TPDOs
-        for up to ``timeout`` s — of the drives in ``rows`` (a mask; default all); returns how many
+        """One SYNC cycle at once (bring-up, state changes): send, then collect the TPDOs for up
+        to ``timeout`` s — of the drives in ``rows`` (a mask; default all); returns how many
         drives did not send all of theirs."""
+        self._send_sync(timeout, rows)
+        return self._collect()
+
+    def _send_sync(self, timeout: float, rows=None) -> None:
+        """Take what arrived since the last collection (EMCY, heartbeats, a late TPDO), send the
+        RPDOs and a SYNC; the TPDOs are awaited until ``timeout`` s from now (:meth:`_collect`)."""
         bus = self.bus
-        while (msg := bus.recv(0.0)) is not None:  # EMCY, heartbeats, a late TPDO: before our SYNC
+        while (msg := bus.recv(0.0)) is not None:
             self._take(msg, late=True)
+        got = self._got
+        for row in range(len(got)):
+            got[row] = 0
+        self._awaited = rows
         for msgs in self._rpdo_msgs:
             for _, msg in msgs:
                 bus.send(msg)
         bus.send(self._sync_msg)
         self._last_sent = self._clock()
+        self._replies_by = time.monotonic() + timeout
         self._after_send()
-        return self._collect(timeout, rows)
 
-    def _collect(self, timeout: float, rows=None) -> int:
-        got = self._got
-        for row in range(len(got)):
-            got[row] = 0
-        self._awaited = rows
-        awaited = len(got) if rows is None else int(np.count_nonzero(rows))
-        self._receive(awaited * self._all_tpdos.bit_count(), timeout, self._take)
-        full, fresh, rows, sw = self._all_tpdos, self._fresh, self._rows, self._statusword
+    def _collect(self) -> int:
+        """The TPDOs of the last SYNC: what has arrived, and what arrives before its deadline
+        (none left to wait for once it passed); returns how many drives did not send all."""
+        got, rows = self._got, self._awaited
+        full = self._all_tpdos
+        pending = sum(full.bit_count() - got[row].bit_count()
+                      for row in range(len(got)) if rows is None or rows[row])
+        self._receive(pending, max(0.0, self._replies_by - time.monotonic()), self._take)
+        fresh, values, sw = self._fresh, self._rows, self._statusword
         missing = not_enabled = 0
         for row in range(len(got)):
             ok = got[row] == full
             fresh[row] = ok
             missing += not ok
-            word = int(rows[row][0])
+            word = int(values[row][0])
             sw[row] = word
             not_enabled += word & c.OE_MASK != c.OE_VALUE
         self._not_enabled = not_enabled

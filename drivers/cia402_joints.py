@@ -5,7 +5,7 @@ Options (the ``[[devices]]`` table; drive layout in :mod:`drivers.protocols.cia4
 in :mod:`drivers.can_bus`)::
 
     bus_load_limit = 0.8      # refuse the configuration above it (exit 2)
-    reply_deadline = 0.6      # fraction of the period write() waits for the TPDOs
+    reply_deadline = 0.6      # fraction of the period after the SYNC until which read() waits for its TPDOs
     stale_limit = 3           # ticks in a row without a joint's TPDOs → Status.ERROR
     drive_timeout = 0.02      # s: the drives' RPDO deadline (0x1400 sub 5, whole ms); a longer gap → DEACTIVATE
     heartbeat_period = 0.1    # s: the drives' heartbeat (0x1017, whole ms)
@@ -23,13 +23,16 @@ reports SWITCH ON DISABLED (or FAULT), reopening the bus once if it was lost. ``
 nodes back in PRE-OPERATIONAL (no PDOs) and closes the bus. One device per bus: it is the bus's
 SYNC producer.
 
-Per tick, ``write()``: frames that arrived since the last cycle are taken first (EMCY,
+Per tick, ``write()``: frames that arrived since the last collection are taken first (EMCY,
 heartbeats, a late TPDO); then each drive's RPDO (controlword *enable operation*, target torque
 in ‰ of its rated torque; *disable voltage* and no torque to a drive that fell out of OPERATION
-ENABLED), one SYNC, and the TPDOs are collected until every drive's arrived or
-``reply_deadline × period`` passed — blocking in ``recv``. The drives apply the torque at the
-SYNC and report their state measured there; ``read()`` of the next tick publishes it (one
-period old, as with any SYNC-cyclic drive). Impedance commands are closed here, at the loop
+ENABLED) and one SYNC — and ``write()`` returns. The drives apply the torque at the SYNC and
+report their state measured there; ``read()`` of the next tick collects those TPDOs and
+publishes them (one period old, as with any SYNC-cyclic drive). In a paced loop they arrived
+while the loop slept, so neither call waits; ``read()`` waits (blocking in ``recv``) only until
+``reply_deadline × period`` after the SYNC, which matters in lock-step (``realtime_factor =
+0``), where the next tick follows at once. Two buses' round trips thus overlap the loop's
+sleep instead of adding up in ``write()``. Impedance commands are closed here, at the loop
 rate, on the state the tick read: a CST drive takes torque only.
 
 Hot path: the RPDO and SYNC messages and all arrays are preallocated; the codec packs into the
@@ -94,6 +97,7 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         self._nm = self._dir * np.array([j.rated_torque for j in joints]) / 1000  # N·m per ‰
         self._tmp, self._tau = np.zeros(n), np.zeros(n)
         self._hb_late = np.zeros(n, dtype=bool)
+        self._cycle_t: float | None = None  # loop time of the SYNC whose TPDOs read() collects next
 
     # -- configuration -------------------------------------------------------------------
     @classmethod
@@ -219,6 +223,13 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
     # -- per tick ------------------------------------------------------------------------
     def _read(self, t: float) -> Status:
         self._t_loop = t
+        if self._cycle_t is not None:  # the TPDOs of the last tick's SYNC
+            cycle_t, self._cycle_t = self._cycle_t, None
+            if self.bus is not None:
+                try:
+                    self._answered(cycle_t, self._collect(), self._fresh)
+                except Exception as e:
+                    self._lost(e)
         s, v, tmp, fresh, stale = self.state, self._values, self._tmp, self._fresh, self._stale
         active = self.lifecycle is Lifecycle.ACTIVE
         silent = active and self._heartbeats_missing()
@@ -299,10 +310,12 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         np.clip(tau, -32768, 32767, out=tau)
         self._pack(tau)
         try:
-            missing = self._cycle(self.reply_timeout)
+            self._send_sync(self.reply_timeout)
         except Exception as e:
             return self._lost(e)
-        return self._end_write(t, missing, self._fresh)
+        self.counters["cycles"] += 1
+        self._cycle_t = t  # its TPDOs are collected by the next read
+        return Status.DEACTIVATE if self._drives_off is not None else Status.OK
 
     def _cycle_until(self, controlword, done, what: str, rows=None, budget: float | None = None) -> None:
         """SYNC cycles with ``controlword(row, statusword)`` and zero torque until ``done(statusword)``
@@ -312,6 +325,7 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
             raise HardwareError(f"{self.name}: {what}: the bus is not open")
         budget = self.exchange_timeout if budget is None else budget
         rows = np.ones(len(self.joints), dtype=bool) if rows is None else rows
+        self._cycle_t = None  # a tick's SYNC still uncollected is superseded by these
         end = time.monotonic() + budget
         for _ in range(STATE_MACHINE_CYCLES):
             self._pack_each(controlword)

@@ -1,5 +1,6 @@
 """The cia402 driver in-process (tests/can/lockstep_rig.py): the real driver on a python-can
 virtual bus, emulated CiA 402 drives (hil_sim.cia402_drive) on the far end."""
+import threading
 import tracemalloc
 
 import numpy as np
@@ -9,6 +10,7 @@ from drivers.cia402_joints import Cia402JointGroup
 from drivers.protocols import cia402 as c
 from drivers.protocols.cia402_layout import Cia402Joint
 from hil_sim.cia402_drive import Cia402Drive, Cia402DriveBus
+from hil_sim.mit_drive import pump
 from lockstep_rig import LockStep, rigs, silence_second_drive, virtual_bus
 from rtctl.errors import HardwareError
 from rtctl.hal import CommandMode, Status
@@ -31,9 +33,24 @@ class Rig(LockStep, Cia402JointGroup):
         self.drives.service(self.now, [])
 
 
+class SlowWire(Rig):
+    """Drives behind a wire with latency: while ``hold``, they answer when the test pumps them."""
+
+    hold = False
+
+    def _after_send(self):
+        if not self.hold:
+            super()._after_send()
+
+
 @pytest.fixture
 def rig():
     yield from rigs(Rig)
+
+
+@pytest.fixture
+def slow_rig():
+    yield from rigs(SlowWire)
 
 
 def test_configure_writes_the_settings_and_reads_the_state_without_enabling(rig):
@@ -211,3 +228,56 @@ def test_a_tick_allocates_nothing_that_stays(rig):
         tracemalloc.stop()
     # python-can's Messages (and the emulated drives' frames) come and go within each tick
     assert after - before <= 1024 and peak - before < 16 * 1024, (after - before, peak - before)
+
+
+def test_write_sends_the_sync_and_returns_and_the_next_read_collects_the_tpdos(slow_rig):
+    """A paced loop: the TPDOs arrive while the loop sleeps; write() does not wait for them (two
+    buses' round trips would add up in one tick), the next read() takes them."""
+    r = slow_rig(reply_deadline=0.9)
+    r.activate()
+    r.tick()
+    r.read(r.now)  # the tick's TPDOs taken
+    r.hold = True
+    r.command.tau_ff[:] = [2.0, -4.0]
+    r.q[:] = [0.2, -0.1]
+    assert r.write(r.now) == Status.OK
+    assert r.counters["missing_replies"] == 0  # nothing awaited yet
+    pump(r.drives, r.peer, now=r.now)  # the wire delivers: the drives apply the torque and answer
+    assert r.tau == pytest.approx([2.0, -4.0])
+    r.now += 0.001
+    assert r.read(r.now) == Status.OK and r.state.fresh.all()
+    assert np.abs(r.state.position - r.q).max() <= P_LSB
+    assert r.counters["missing_replies"] == 0 and r.counters["late_replies"] == 0
+
+
+def test_in_lock_step_read_waits_for_the_tpdos_until_the_deadline(slow_rig):
+    """A read right after the write (realtime_factor = 0) waits for TPDOs still on the wire …"""
+    r = slow_rig(reply_deadline=1000.0)  # 1 s: the answer, 20 ms late, comes well within it
+    r.activate()
+    r.tick()
+    r.read(r.now)  # the tick's TPDOs taken
+    r.hold = True
+    r.q[:] = [0.3, 0.4]
+    assert r.write(r.now) == Status.OK
+    late = threading.Timer(0.02, pump, (r.drives, r.peer), {"now": r.now})
+    late.start()
+    try:
+        assert r.read(r.now) == Status.OK and r.state.fresh.all()
+    finally:
+        late.join()
+    assert np.abs(r.state.position - r.q).max() <= P_LSB and r.counters["missing_replies"] == 0
+
+
+def test_tpdos_missing_at_the_deadline_are_missing_and_count_late_when_they_come(slow_rig):
+    """… and not beyond it: what has not come is missing (stale), and taken as late when it comes."""
+    r = slow_rig(reply_deadline=0.5)
+    r.activate()
+    r.tick()
+    r.read(r.now)  # the tick's TPDOs taken
+    r.hold = True
+    assert r.write(r.now) == Status.OK
+    assert r.read(r.now) == Status.OK and not r.state.fresh.any()
+    assert r.counters["missing_replies"] == 2
+    pump(r.drives, r.peer, now=r.now)
+    r.write(r.now)  # takes them before its SYNC
+    assert r.counters["late_replies"] == 4  # two TPDOs per drive
