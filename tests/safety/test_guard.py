@@ -60,3 +60,12 @@ def test_guard_that_raises_or_writes_nan_is_a_fault():
     r = Rig(guard=ScriptedGuard(GuardVerdict.MODIFIED, tau=[0.0, math.nan, 0.0]))
     assert r.step() == Verdict.FALLBACK
     assert r.stage.faults[0].kind == FaultKind.NONFINITE_COMMAND and "guard" in r.stage.faults[0].reason
+
+
+def test_the_guard_kernels_return_the_stages_verdicts():
+    """The compiled guard returns plain integers (numba kernels); the stage reads them as
+    GuardVerdict — the two numberings are one protocol and must agree (a PASS the stage reads
+    as a change would log a guard event on quiet ticks or re-bound every command)."""
+    from rtctl.guard import kernels as gk
+
+    assert (gk.PASS, gk.MODIFIED, gk.STOP) == (GuardVerdict.PASS, GuardVerdict.MODIFIED, GuardVerdict.STOP)

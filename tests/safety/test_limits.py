@@ -158,6 +158,29 @@ def test_past_a_soft_limit_an_inward_torque_of_any_size_is_kept():
     np.testing.assert_array_equal(r.command.tau_ff, [-0.5, 0.25, 0.0])
 
 
+@pytest.mark.parametrize("tau", [0.5, 1e-3])
+def test_past_a_soft_limit_an_outward_torque_of_any_size_is_zeroed(tau):
+    """The counterpart of the test above: however small, a push further out is zeroed (a dead
+    band such as |τ| < 1 N·m would let a slow push creep through the limit)."""
+    r = Rig(position_margin=0.1)
+    r.state.position[:] = [0.95, -1.95, 0.0]  # inside the margin of the upper and the lower limit
+    r.command.tau_ff[:] = [tau, -tau, tau]  # out, out, free
+    assert r.step() == Verdict.OK
+    np.testing.assert_array_equal(r.command.tau_ff, [0.0, 0.0, tau])
+    assert r.stage.summary()["clamps"]["position"] == [1, 1, 0]
+
+
+@pytest.mark.parametrize("option", [{"stale_ticks": 0}, {"estop_off_delay": -1e-3}, {"fault_off_delay": -1e-3},
+                                    {"stop_velocity": -1e-3}])
+def test_settings_just_beyond_their_bounds_are_refused(option):
+    with pytest.raises(ValueError, match="stale_ticks >= 1 and non-negative"):
+        Rig(**option)
+
+
+def test_settings_at_their_bounds_are_accepted():
+    Rig(stale_ticks=1, estop_off_delay=0.0, fault_off_delay=0.0, stop_velocity=0.0)
+
+
 def test_a_zero_velocity_limit_is_refused_and_the_default_factor_is_one():
     with pytest.raises(ValueError):
         limits_table(Q_MIN, Q_MAX, np.array([2.0, 0.0, 4.0]), TAU_MAX)

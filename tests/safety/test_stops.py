@@ -285,6 +285,18 @@ def test_a_nonfinite_state_fault_records_the_bad_value(q, qd, value):
     assert f.value == value or (math.isnan(value) and math.isnan(f.value))
 
 
+@pytest.mark.parametrize("q, qd", [(0.1, math.nan), (math.inf, 0.0)])
+def test_a_nonfinite_state_fault_stays_while_either_value_is_not_finite(q, qd):
+    r = Rig()
+    r.state.position[1] = math.nan
+    assert r.step() == Verdict.FALLBACK
+    r.state.position[1], r.state.velocity[1] = q, qd  # half repaired
+    assert not r.stage.reset()
+    assert [(f.kind, f.joint) for f in r.stage.faults] == [(FaultKind.NONFINITE_STATE, 1)]
+    r.state.position[1], r.state.velocity[1] = 0.1, 0.0
+    assert r.stage.reset() and not r.stage.faults
+
+
 def test_a_nonfinite_command_fault_is_cleared_by_the_reset():
     r = Rig()
     r.command.tau_ff[2] = math.nan
