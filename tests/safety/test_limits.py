@@ -90,6 +90,11 @@ def test_limits_table_refuses_nonsense():
         limits_table(Q_MIN, Q_MAX, -V_MAX, TAU_MAX)
     with pytest.raises(ValueError):
         limits_table(Q_MIN, Q_MAX[:2], V_MAX, TAU_MAX)
+    with pytest.raises(ValueError):
+        limits_table(Q_MIN, Q_MAX, V_MAX, np.array([10.0, 0.0, 5.0]))  # no torque on a joint
+    for factor in (0.0, -1.0):
+        with pytest.raises(ValueError):
+            limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, velocity_factor=factor)
 
 
 def test_the_hard_limits_are_inclusive_and_a_reset_exactly_there_clears():

@@ -118,6 +118,19 @@ def test_reset_clears_only_faults_whose_cause_is_gone():
     assert r.step() == Verdict.FALLBACK and len(r.stage.faults) == 1
 
 
+@pytest.mark.parametrize("joint", [0, 2])
+def test_a_fault_kept_by_a_partial_reset_is_not_recorded_again(joint):
+    r = Rig()
+    r.state.position[joint] = 3.5  # past every joint's q_max
+    r.state.velocity[:] = 0.5
+    r.stage.estop()
+    r.step()
+    assert not r.stage.reset()  # the e-stop is acknowledged, the joint is still out of range
+    for _ in range(3):
+        assert r.step() == Verdict.FALLBACK
+    assert [(f.kind, f.joint) for f in r.stage.faults] == [(FaultKind.POSITION, joint)]
+
+
 def test_deactivate_persists_until_a_successful_reset():
     r = Rig(estop_off_delay=0.0)
     r.state.fresh[2] = False
