@@ -51,8 +51,10 @@ def test_the_rated_torque_is_whole_milli_newton_metres():
     (j,) = read(["a"], rated_torque=0.001)
     assert j.rated_torque_mnm == 1
     assert read(["a"], rated_torque=4_000_000.0)[0].rated_torque_mnm == 4_000_000_000
-    for bad in (0.0, -1.0, 0.0004, 0.0005, 4_000_001.0):  # 0.0005 rounds to 0 mN·m (half to even)
+    for bad in (0.0004, 0.0005, 4_000_001.0):  # 0.0005 rounds to 0 mN·m (half to even)
         refused("devices[0].rated_torque", None, ["a"], rated_torque=bad)
+    for bad in (0.0, -1.0):  # a sign error is named as one, not as a torque too small
+        refused("devices[0].rated_torque", "a positive number", ["a"], rated_torque=bad)
 
 
 def test_one_revolution_is_counts_per_rev_increments():
