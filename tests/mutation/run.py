@@ -3,6 +3,7 @@
     python tests/mutation/run.py safety [--sample N] [--workdir DIR] [--keep]
     python tests/mutation/run.py all --sample 150
     python tests/mutation/run.py protocols         (protocols-mit, protocols-cia402, …)
+    python tests/mutation/run.py safety --workdir DIR --resume   (a stopped run, or a sample, to the end)
 
 For each target (see ``TARGETS``) it copies a committed tree (``git archive``, HEAD or ``--rev``) into a
 work directory — cosmic-ray rewrites the source on disk, one mutant at a time, so it must
@@ -31,12 +32,14 @@ import hashlib
 import json
 import os
 import re
+import sqlite3
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
+CR = [sys.executable, "-m", "cosmic_ray.cli"]
 PYTEST = f"{sys.executable} -m pytest -x -q -p no:cacheprovider -p no:randomly -o addopts="
 
 TARGETS = {
@@ -105,9 +108,8 @@ def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD") 
     modules = ", ".join(json.dumps(str(tree / p)) for p in paths)
     config.write_text(f'[cosmic-ray]\nmodule-path = [{modules}]\ntimeout = {float(timeout)}\nexcluded-modules = []\n'
                       f'test-command = "{PYTEST} {tests}"\n\n[cosmic-ray.distributor]\nname = "local"\n')
-    env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tree / ".numba")}
-    cr = [sys.executable, "-m", "cosmic_ray.cli"]
-    subprocess.run([*cr, "init", config, db], cwd=tree, env=env, check=True, capture_output=True)
+    env = _env(tree)
+    subprocess.run([*CR, "init", config, db], cwd=tree, env=env, check=True, capture_output=True)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         items = list(work_db.pending_work_items)
         keep = [i for i in items if all(plausible(m.operator_name) for m in i.mutations)]
@@ -121,8 +123,36 @@ def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD") 
     baseline = subprocess.run(PYTEST.split() + tests.split(), cwd=tree, env=env, capture_output=True, text=True)
     if baseline.returncode != 0:
         raise SystemExit(f"{name}: the tests fail without any mutant:\n{baseline.stdout[-3000:]}")
-    subprocess.run([*cr, "exec", config, db], cwd=tree, env=env, check=True)
+    subprocess.run([*CR, "exec", config, db], cwd=tree, env=env, check=True)
     return report(name, tree, db)
+
+
+def resume_target(name: str, workdir: Path, rev: str = "HEAD") -> dict:
+    """Continue the run of ``name`` in ``workdir`` (one that was stopped, or a sample to widen
+    to every mutant): the tree is exported again at ``rev`` — the tests as they are now, and no
+    mutant left planted by a stopped run — and every plausible mutant not yet killed is run:
+    those never run and the survivors, again."""
+    from cosmic_ray.work_db import WorkDB, use_db
+    from cosmic_ray.work_item import TestOutcome, WorkerOutcome
+
+    tree = workdir / name
+    config, db = tree / "cosmic-ray.toml", tree / "session.sqlite"
+    if not db.exists():
+        raise SystemExit(f"{name}: no run to resume in {tree}")
+    export_tree(tree, rev)
+    with use_db(str(db), WorkDB.Mode.open) as work_db:
+        again = [item.job_id for item, result in work_db.completed_work_items
+                 if all(plausible(m.operator_name) for m in item.mutations)
+                 and (result.worker_outcome == WorkerOutcome.SKIPPED or result.test_outcome == TestOutcome.SURVIVED)]
+    with sqlite3.connect(db) as con:
+        con.executemany("DELETE FROM work_results WHERE job_id = ?", [(j,) for j in again])
+    print(f"{name}: resuming in {tree}, {len(again)} mutants to run", flush=True)
+    subprocess.run([*CR, "exec", config, db], cwd=tree, env=_env(tree), check=True)
+    return report(name, tree, db)
+
+
+def _env(tree: Path) -> dict:
+    return {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tree / ".numba")}
 
 
 def report(name: str, tree: Path, db: Path) -> dict:
@@ -159,10 +189,15 @@ def main(argv=None) -> int:
     p.add_argument("--sample", type=int, default=None, help="evaluate this many mutants per target (default: all)")
     p.add_argument("--workdir", type=Path, default=None, help="where the copies go (default: a new temp dir)")
     p.add_argument("--rev", default="HEAD", help="the commit to test (default: HEAD)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the run in --workdir: what was not run, and the survivors again, at --rev")
     args = p.parse_args(argv)
+    if args.resume and (args.workdir is None or args.sample is not None):
+        p.error("--resume continues the run in --workdir, with every mutant (no --sample)")
     workdir = args.workdir or Path(tempfile.mkdtemp(prefix="rtctl-mutation-"))
     names = GROUPS.get(args.target, [args.target])
-    results = [run_target(n, workdir, args.sample, args.rev) for n in names]
+    results = [resume_target(n, workdir, args.rev) if args.resume else run_target(n, workdir, args.sample, args.rev)
+               for n in names]
     print(f"\n{'target':<18} {'mutants':>8} {'killed':>7} {'t/o':>5} {'survived':>9} {'rate':>7}")
     for r in results:
         rate = "" if r["survival_rate"] is None else f"{100 * r['survival_rate']:.1f} %"
