@@ -43,7 +43,7 @@ def test_guard_stop_engages_fallback_with_its_reason():
     r.state.velocity[:] = 1.0
     assert r.step() == Verdict.FALLBACK
     (f,) = r.stage.faults
-    assert f.kind == FaultKind.GUARD and "cable carrier" in f.reason
+    assert (f.kind, f.joint) == (FaultKind.GUARD, -1) and "cable carrier" in f.reason  # robot-wide
     np.testing.assert_array_equal(r.command.tau_ff, -1.0)
     r.step()
     assert len(g.calls) == 1  # not consulted while the fallback is in charge
@@ -69,3 +69,17 @@ def test_the_guard_kernels_return_the_stages_verdicts():
     from rtctl.guard import kernels as gk
 
     assert (gk.PASS, gk.MODIFIED, gk.STOP) == (GuardVerdict.PASS, GuardVerdict.MODIFIED, GuardVerdict.STOP)
+
+
+def test_a_guard_that_raises_is_a_robot_wide_guard_fault():
+    class Raising:
+        reason = ""
+
+        def check(self, t, state, command):
+            raise ValueError("zone table corrupt")
+
+    r = Rig(guard=Raising())
+    assert r.step() == Verdict.FALLBACK
+    (f,) = r.stage.faults
+    assert (f.kind, f.joint) == (FaultKind.GUARD, -1)
+    assert f.reason == "guard raised ValueError: zone table corrupt"

@@ -175,6 +175,52 @@ def test_past_a_soft_limit_an_outward_torque_of_any_size_is_zeroed(tau):
     assert r.stage.summary()["clamps"]["position"] == [1, 1, 0]
 
 
+def test_at_exactly_the_soft_limit_the_torque_is_kept_and_just_past_it_zeroed():
+    """"Past" the soft limit is strictly beyond it, at both ends (the clamp starts one ulp out)."""
+    from rtctl.safety.kernels import SOFT_HI, SOFT_LO
+
+    r = Rig(position_margin=0.1)
+    hi, lo = r.stage.lim[SOFT_HI], r.stage.lim[SOFT_LO]
+    r.state.position[:] = [hi[0], lo[1], hi[2]]
+    r.command.tau_ff[:] = [3.0, -3.0, 2.0]  # all outward
+    assert r.step() == Verdict.OK
+    np.testing.assert_array_equal(r.command.tau_ff, [3.0, -3.0, 2.0])
+    r.state.position[:] = [np.nextafter(hi[0], np.inf), np.nextafter(lo[1], -np.inf), np.nextafter(hi[2], np.inf)]
+    assert r.step() == Verdict.OK
+    np.testing.assert_array_equal(r.command.tau_ff, 0.0)
+
+
+def test_without_a_margin_the_soft_limits_are_the_hard_ones():
+    r = Rig()
+    r.state.position[:] = [0.95, -1.95, 2.5]
+    r.command.tau_ff[:] = [3.0, -3.0, 2.0]  # outward, within the joint limits
+    assert r.step() == Verdict.OK
+    np.testing.assert_array_equal(r.command.tau_ff, [3.0, -3.0, 2.0])
+
+
+def test_small_impedance_gains_pass_unclamped():
+    r = Rig(kp_max=200.0, kd_max=5.0)
+    c = r.command
+    c.mode = CommandMode.IMPEDANCE
+    c.kp[:] = [0.5, 0.0, 1e-3]
+    c.kd[:] = [0.5, 1e-3, 0.0]
+    assert r.step() == Verdict.OK
+    np.testing.assert_array_equal(c.kp, [0.5, 0.0, 1e-3])
+    np.testing.assert_array_equal(c.kd, [0.5, 1e-3, 0.0])
+    assert r.stage.summary()["clamps"]["impedance"] == [0, 0, 0]
+
+
+@pytest.mark.parametrize("option", [{"hold_stiffness": -1e-3}, {"damping": -1e-3},
+                                    {"hold_stiffness": [50.0, -1.0, 50.0]}])
+def test_negative_fallback_gains_are_refused(option):
+    with pytest.raises(ValueError, match="hold_stiffness and damping"):
+        Rig(**option)
+
+
+def test_zero_fallback_gains_are_accepted():
+    Rig(hold_stiffness=0.0, damping=0.0)
+
+
 @pytest.mark.parametrize("option", [{"stale_ticks": 0}, {"estop_off_delay": -1e-3}, {"fault_off_delay": -1e-3},
                                     {"stop_velocity": -1e-3}])
 def test_settings_just_beyond_their_bounds_are_refused(option):
@@ -191,3 +237,7 @@ def test_a_zero_velocity_limit_is_refused_and_the_default_factor_is_one():
         limits_table(Q_MIN, Q_MAX, np.array([2.0, 0.0, 4.0]), TAU_MAX)
     lim = limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX)
     np.testing.assert_array_equal(lim[4], V_MAX)  # the velocity row (V_LIM): the robot's limits as they are
+    from rtctl.safety.kernels import SOFT_HI, SOFT_LO
+
+    np.testing.assert_array_equal(lim[SOFT_LO], Q_MIN)  # and no margin: the soft limits are the hard ones
+    np.testing.assert_array_equal(lim[SOFT_HI], Q_MAX)

@@ -310,6 +310,27 @@ def test_a_nonfinite_state_fault_stays_while_either_value_is_not_finite(q, qd):
     assert r.stage.reset() and not r.stage.faults
 
 
+def test_a_gravity_model_that_raises_is_reported_and_the_hold_goes_on_without_it():
+    def broken(q):
+        raise RuntimeError("model not loaded")
+
+    r = Rig(gravity=broken, hold_stiffness=100.0, damping=0.0)
+    r.state.position[0] = 1.2  # past q_max: a fault, the hold snapshots the position
+    assert r.step() == Verdict.FALLBACK
+    (event,) = [e for e in r.stage.events if e["event"] == "gravity_failed"]
+    assert event["reason"] == "RuntimeError: model not loaded"
+    r.state.position[0] = 1.1
+    assert r.step() == Verdict.FALLBACK
+    assert r.command.tau_ff[0] == pytest.approx(100.0 * (1.2 - 1.1))  # the spring alone, no gravity term
+
+
+def test_an_estop_before_the_first_tick_is_recorded_at_tick_0():
+    r = Rig()
+    r.stage.estop()
+    (f,) = r.stage.faults
+    assert (f.kind, f.tick, f.t) == (FaultKind.ESTOP, 0, 0.0)
+
+
 def test_a_nonfinite_command_fault_is_cleared_by_the_reset():
     r = Rig()
     r.command.tau_ff[2] = math.nan
