@@ -134,6 +134,14 @@ def test_model_ranges_must_be_finite_and_increasing():
     assert mit.MitDriveModel(t=(-1e-3, 1e-3), torque_constant=1e-3).t == (-1e-3, 1e-3)
 
 
+def test_a_drive_model_cannot_be_changed_in_place():
+    """One model instance serves every joint of its kind: a change through one would change all."""
+    import dataclasses
+
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        KATZ.kd = (0.0, 50.0)
+
+
 def test_special_frames():
     assert mit.special_frame(Special.ENTER_MOTOR_MODE) == bytes.fromhex("FF FF FF FF FF FF FF FC")
     assert mit.special_frame(Special.EXIT_MOTOR_MODE)[-1] == 0xFD
@@ -173,6 +181,11 @@ def test_non_finite_refused():
 
 
 # -- quantisation against exact rational arithmetic ---------------------------------------
+# a configured model whose ranges do not start at 0 or sit symmetric about it (kp_range, kd_range …
+# in a device table): every shipped model has kp, kd from 0, which hides a sign slip in the offset
+OFFSET_MODEL = mit.MitDriveModel(p=(-10.0, 15.0), v=(-40.0, 30.0), kp=(2.0, 500.0), kd=(0.5, 5.0), t=(-10.0, 20.0))
+
+
 def exact_int(x, lo, hi, bits):
     x = min(max(Fraction(x), Fraction(lo)), Fraction(hi))
     return (x - Fraction(lo)) * ((1 << bits) - 1) / (Fraction(hi) - Fraction(lo))
@@ -180,7 +193,7 @@ def exact_int(x, lo, hi, bits):
 
 @settings(max_examples=300, deadline=None)
 @given(
-    model=st.sampled_from(list(DRIVE_MODELS.values())),
+    model=st.sampled_from([*DRIVE_MODELS.values(), OFFSET_MODEL]),
     fractions=st.tuples(*[st.floats(-0.2, 1.2) for _ in FIELDS]),
 )
 def test_quantisation_matches_exact_truncation(model, fractions):
@@ -200,7 +213,8 @@ def test_quantisation_matches_exact_truncation(model, fractions):
 
 
 @settings(max_examples=300, deadline=None)
-@given(model=st.sampled_from(list(DRIVE_MODELS.values())), fractions=st.tuples(*[st.floats(0, 1) for _ in FIELDS]))
+@given(model=st.sampled_from([*DRIVE_MODELS.values(), OFFSET_MODEL]),
+       fractions=st.tuples(*[st.floats(0, 1) for _ in FIELDS]))
 def test_command_round_trip_within_one_lsb(model, fractions):
     values = [getattr(model, f)[0] + u * (getattr(model, f)[1] - getattr(model, f)[0]) for (f, _), u in zip(FIELDS, fractions)]
     decoded = mit.unpack_command(mit.pack_command(model, *values), model)

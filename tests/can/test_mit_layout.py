@@ -50,6 +50,7 @@ def test_device_defaults_apply_to_every_joint_and_a_drive_table_overrides_them()
 
 def test_master_id_spans_the_standard_can_ids():
     assert read_master_id(device(master_id=0x7FF)) == 0x7FF
+    assert read_master_id(device(master_id=0)) == 0
     for bad in (-1, 0x800):
         with pytest.raises(ConfigError, match=r"devices\[0\]\.master_id"):
             read_master_id(device(master_id=bad))

@@ -92,6 +92,11 @@ def test_limits_table_refuses_nonsense():
         limits_table(Q_MIN, Q_MAX[:2], V_MAX, TAU_MAX)
     with pytest.raises(ValueError):
         limits_table(Q_MIN, Q_MAX, V_MAX, np.array([10.0, 0.0, 5.0]))  # no torque on a joint
+    with pytest.raises(ValueError):
+        limits_table(Q_MIN, np.array([1.0, -2.0, 3.0]), V_MAX, TAU_MAX)  # a joint without range
+    for gains in ({"kp_max": -1e-3}, {"kd_max": -1e-3}):
+        with pytest.raises(ValueError):
+            limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, **gains)
     for factor in (0.0, -1.0):
         with pytest.raises(ValueError):
             limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, velocity_factor=factor)
@@ -188,6 +193,19 @@ def test_at_exactly_the_soft_limit_the_torque_is_kept_and_just_past_it_zeroed():
     r.state.position[:] = [np.nextafter(hi[0], np.inf), np.nextafter(lo[1], -np.inf), np.nextafter(hi[2], np.inf)]
     assert r.step() == Verdict.OK
     np.testing.assert_array_equal(r.command.tau_ff, 0.0)
+
+
+def test_an_impedance_target_exactly_at_the_soft_limit_is_not_a_clamp():
+    from rtctl.safety.kernels import SOFT_HI, SOFT_LO
+
+    r = Rig(position_margin=0.1)
+    c = r.command
+    c.mode = CommandMode.IMPEDANCE
+    c.q_des[:] = [r.stage.lim[SOFT_HI, 0], r.stage.lim[SOFT_LO, 1], 0.0]
+    target = c.q_des.copy()
+    assert r.step() == Verdict.OK
+    np.testing.assert_array_equal(c.q_des, target)
+    assert r.stage.summary()["clamps"]["impedance"] == [0, 0, 0]
 
 
 def test_without_a_margin_the_soft_limits_are_the_hard_ones():
