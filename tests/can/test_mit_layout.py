@@ -69,6 +69,7 @@ def test_drive_ids_are_refused_naming_the_key(ids, match):
 
 def test_a_drive_id_may_not_be_the_master_id():
     refused("devices[0].ids", "other than master_id 0x5", ids=[1, 5, 3], master_id=5)
+    refused("devices[0].ids", "distinct", ids=[0, 1, 2], master_id=5)  # 0 is no drive's id, whatever the master's
     assert [j.drive_id for j in read(ids=[1, 2, 3], master_id=4)] == [1, 2, 3]
 
 
