@@ -57,9 +57,13 @@ def test_guard_that_raises_or_writes_nan_is_a_fault():
     r = Rig(guard=Raising())
     assert r.step() == Verdict.FALLBACK
     assert r.stage.faults[0].kind == FaultKind.GUARD and "corrupt" in r.stage.faults[0].reason
-    r = Rig(guard=ScriptedGuard(GuardVerdict.MODIFIED, tau=[0.0, math.nan, 0.0]))
-    assert r.step() == Verdict.FALLBACK
-    assert r.stage.faults[0].kind == FaultKind.NONFINITE_COMMAND and "guard" in r.stage.faults[0].reason
+    for joint in range(3):  # every joint, the first included
+        tau = [0.0, 0.0, 0.0]
+        tau[joint] = math.nan
+        r = Rig(guard=ScriptedGuard(GuardVerdict.MODIFIED, tau=tau))
+        assert r.step() == Verdict.FALLBACK
+        (f,) = r.stage.faults
+        assert (f.kind, f.joint) == (FaultKind.NONFINITE_COMMAND, joint) and "guard" in f.reason
 
 
 def test_the_guard_kernels_return_the_stages_verdicts():

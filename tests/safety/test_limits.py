@@ -97,6 +97,12 @@ def test_limits_table_refuses_nonsense():
     for gains in ({"kp_max": -1e-3}, {"kd_max": -1e-3}):
         with pytest.raises(ValueError):
             limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, **gains)
+    limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, kp_max=0.0, kd_max=0.0)  # torque mode only: no gains at all
+    limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, kp_max=0.5, kd_max=0.5)
+    half = (Q_MAX - Q_MIN) / 2  # the soft limits may meet, not cross
+    limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, position_margin=half)
+    with pytest.raises(ValueError):
+        limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, position_margin=np.nextafter(half, np.inf))
     for factor in (0.0, -1.0):
         with pytest.raises(ValueError):
             limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, velocity_factor=factor)
