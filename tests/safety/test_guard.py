@@ -87,3 +87,19 @@ def test_a_guard_that_raises_is_a_robot_wide_guard_fault():
     (f,) = r.stage.faults
     assert (f.kind, f.joint) == (FaultKind.GUARD, -1)
     assert f.reason == "guard raised ValueError: zone table corrupt"
+
+
+def test_a_guard_episode_is_an_event_with_the_guards_fields():
+    class Reporting(ScriptedGuard):
+        event_due = True
+
+        def event(self):
+            return {"zone": "cable carrier", "action": "stop"}
+
+    r = Rig(guard=Reporting(GuardVerdict.STOP))
+    r.step()
+    (event,) = [e for e in r.stage.events if e["event"] == "guard"]
+    assert (event["zone"], event["action"]) == ("cable carrier", "stop")
+    quiet = Rig(guard=Reporting(GuardVerdict.PASS))  # a pass is no episode, whatever event_due says
+    quiet.step()
+    assert not [e for e in quiet.stage.events if e["event"] == "guard"]

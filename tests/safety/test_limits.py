@@ -98,6 +98,7 @@ def test_limits_table_refuses_nonsense():
         with pytest.raises(ValueError):
             limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, **gains)
     limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, kp_max=0.0, kd_max=0.0)  # torque mode only: no gains at all
+    limits_table(Q_MIN, Q_MAX, np.full(3, 0.5), np.full(3, 0.5))  # slow, weak joints: any positive limit
     limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, kp_max=0.5, kd_max=0.5)
     half = (Q_MAX - Q_MIN) / 2  # the soft limits may meet, not cross
     limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, position_margin=half)
