@@ -96,8 +96,10 @@ class Cia402Frames:
         (none left to wait for once it passed); returns how many drives did not send all."""
         got, rows = self._got, self._awaited
         full = self._all_tpdos
-        pending = sum(full.bit_count() - got[row].bit_count()
-                      for row in range(len(got)) if rows is None or rows[row])
+        pending = 0  # (a plain loop: no generator object per tick)
+        for row in range(len(got)):
+            if rows is None or rows[row]:
+                pending += full.bit_count() - got[row].bit_count()
         self._receive(pending, max(0.0, self._replies_by - time.monotonic()), self._take)
         fresh, values, sw = self._fresh, self._rows, self._statusword
         missing = not_enabled = 0
