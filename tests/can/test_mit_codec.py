@@ -173,6 +173,14 @@ def test_pack_into_preallocated_buffers():
     assert out[0].tolist() == [0.0] * 5 and abs(out[1, 0]) < 2e-4
 
 
+@pytest.mark.parametrize("model", DRIVE_MODELS.values(), ids=DRIVE_MODELS.keys())
+def test_a_reply_packed_into_a_larger_buffer_says_its_length(model):
+    buf = bytearray(64)  # e.g. a CAN FD frame's: the returned length is what goes on the wire
+    n = mit.pack_reply_into(buf, model, 5, 0.5, -1.0, 0.2)
+    assert n == model.reply_length and mit.reply_drive_id(bytes(buf[:n]), model) == 5
+    assert not any(buf[n:])
+
+
 def test_non_finite_refused():
     with pytest.raises(ValueError):
         mit.pack_command(KATZ, math.nan, 0, 0, 0, 0)

@@ -36,11 +36,12 @@ def test_defaults_number_the_drives_from_one_on_the_katz_model():
 def test_device_defaults_apply_to_every_joint_and_a_drive_table_overrides_them():
     waist, shoulder, elbow = read(
         ids=[7, 3, 0xFF], drive_model="ak80-9", t_range=[-40.0, 40.0],
-        drives={"shoulder": {"t_range": [-190.0, 190.0], "direction": -1, "offset": 0.25},
+        drives={"waist": {"offset": -0.5},  # a drive table without a direction: +1
+                "shoulder": {"t_range": [-190.0, 190.0], "direction": -1, "offset": 0.25},
                 "elbow": {"direction": 1, "reply_format": "cubemars", "torque_constant": 0.1}})
     assert [j.drive_id for j in (waist, shoulder, elbow)] == [7, 3, 0xFF]
     assert waist.model.v == (-25.64, 25.64) and waist.model.t == waist.model.effort == (-40.0, 40.0)
-    assert (waist.direction, waist.offset) == (1.0, 0.0)
+    assert (waist.direction, waist.offset) == (1.0, -0.5)
     # the drive's own range replaces the device's; the model and the rest stay the device's
     assert shoulder.model.t == shoulder.model.effort == (-190.0, 190.0) and shoulder.model.v == (-25.64, 25.64)
     assert (shoulder.direction, shoulder.offset) == (-1.0, 0.25)

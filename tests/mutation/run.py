@@ -146,7 +146,9 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD") -> dict:
                  and (result.worker_outcome == WorkerOutcome.SKIPPED or result.test_outcome == TestOutcome.SURVIVED)]
     with sqlite3.connect(db) as con:
         con.executemany("DELETE FROM work_results WHERE job_id = ?", [(j,) for j in again])
-    print(f"{name}: resuming in {tree}, {len(again)} mutants to run", flush=True)
+    with use_db(str(db), WorkDB.Mode.open) as work_db:
+        pending = sum(1 for _ in work_db.pending_work_items)  # a stopped run's unfinished ones too
+    print(f"{name}: resuming in {tree}, {pending} mutants to run", flush=True)
     subprocess.run([*CR, "exec", config, db], cwd=tree, env=_env(tree), check=True)
     return report(name, tree, db)
 

@@ -104,6 +104,13 @@ def test_a_nonfinite_command_on_any_joint_is_caught_and_names_that_joint(joint, 
     assert f.kind == FaultKind.NONFINITE_COMMAND and f.joint == joint
 
 
+def test_a_nonfinite_command_on_several_joints_is_one_fault_naming_the_first():
+    r = Rig()
+    r.command.tau_ff[1:] = [math.inf, math.nan]
+    assert r.step() == Verdict.FALLBACK
+    assert [(f.kind, f.joint, f.value) for f in r.stage.faults] == [(FaultKind.NONFINITE_COMMAND, 1, math.inf)]
+
+
 @pytest.mark.parametrize("joint", range(3))
 @pytest.mark.parametrize("field", ["position", "velocity"])
 def test_a_nonfinite_measurement_on_any_joint_is_caught_and_names_that_joint(joint, field):

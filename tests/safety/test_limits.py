@@ -266,3 +266,20 @@ def test_a_zero_velocity_limit_is_refused_and_the_default_factor_is_one():
 
     np.testing.assert_array_equal(lim[SOFT_LO], Q_MIN)  # and no margin: the soft limits are the hard ones
     np.testing.assert_array_equal(lim[SOFT_HI], Q_MAX)
+
+
+def test_a_stage_built_in_code_has_a_runs_defaults_but_holds_until_reset():
+    """A stage without settings behaves as a run without a [safety] table, except that it
+    holds after a fault until a reset (fault_off_delay = inf) where a run switches off after 1 s."""
+    from types import SimpleNamespace
+
+    from rtctl.config import SafetyConfig
+    from rtctl.safety import SafetyStage
+
+    robot = SimpleNamespace(q_min=Q_MIN, q_max=Q_MAX, v_max=V_MAX, tau_max=TAU_MAX)
+    bare, run = Rig().stage, SafetyStage.from_model(robot, SafetyConfig())
+    np.testing.assert_array_equal(bare.lim, run.lim)
+    np.testing.assert_array_equal(bare.fb, run.fb)  # hold stiffness and damping
+    assert (bare.fallback_kind, bare.stale_ticks, bare.estop_off_delay, bare.stop_velocity) == (
+        run.fallback_kind, run.stale_ticks, run.estop_off_delay, run.stop_velocity)
+    assert (bare.fault_off_delay, run.fault_off_delay) == (np.inf, 1.0)

@@ -230,6 +230,17 @@ def test_the_fault_off_delay_counts_from_the_fault_not_from_the_start():
     assert [e.get("reason") for e in r.stage.events if e["event"] == "deactivate"] == ["fault_off_delay"]
 
 
+def test_the_estop_delay_counts_from_the_estop_not_from_the_start():
+    r = Rig(estop_off_delay=5 / 1024)
+    r.dt = 1 / 1024  # exact in binary: the times below are exact
+    r.state.velocity[:] = 0.5  # still moving: the delay, not the stillness, ends the stop
+    for _ in range(10):
+        assert r.step() == Verdict.OK
+    r.stage.estop()  # latched at t = 9/1024 (the last check's time)
+    verdicts = [r.step() for _ in range(8)]
+    assert verdicts == [Verdict.FALLBACK] * 4 + [Verdict.DEACTIVATE] * 4  # off at tick 14 = 9 + 5
+
+
 def test_the_default_estop_delay_is_a_fifth_of_a_second():
     r = Rig()
     r.dt = 1 / 1024
@@ -239,6 +250,12 @@ def test_the_default_estop_delay_is_a_fifth_of_a_second():
     verdicts = [r.step() for _ in range(210)]
     assert verdicts.index(Verdict.DEACTIVATE) + 1 == math.ceil(0.2 * 1024)  # the first tick at t ≥ 0.2 s
     assert [e.get("reason") for e in r.stage.events if e["event"] == "deactivate"] == ["stopped"]
+
+
+def test_each_fault_kind_is_a_bit_of_its_own():
+    """The kinds are OR-ed into one latched word per joint: two sharing a bit would alias."""
+    bits = [int(kind) for kind in FaultKind.__members__.values()]
+    assert all(b > 0 and b & (b - 1) == 0 for b in bits) and len(set(bits)) == len(bits) == 10
 
 
 def test_robot_wide_faults_have_no_joint():
