@@ -181,6 +181,12 @@ def test_a_reply_packed_into_a_larger_buffer_says_its_length(model):
     assert not any(buf[n:])
 
 
+def test_a_reply_reports_room_temperature_unless_told_otherwise():
+    model = DRIVE_MODELS["dm4310"]  # a format that carries a temperature
+    assert mit.unpack_reply(mit.pack_reply(model, 1, 0.0, 0.0, 0.0), model).temperature == 25.0
+    assert mit.unpack_reply(mit.pack_reply(model, 1, 0.0, 0.0, 0.0, temperature=61.0), model).temperature == 61.0
+
+
 def test_non_finite_refused():
     with pytest.raises(ValueError):
         mit.pack_command(KATZ, math.nan, 0, 0, 0, 0)
@@ -327,3 +333,6 @@ def test_drive_model_from_config():
     assert mit.drive_model_from_table(Table({"effort_range": [-2.0, 2.0]}, "b.toml", "x")).t == KATZ.t
     with pytest.raises(ConfigError, match=r"buses\.arm\.drive_model"):
         mit.drive_model_from_table(Table({"drive_model": "ak99"}, "bus.toml", "buses.arm"))
+    for bad in (0.0, -0.1):  # refused as a configuration error, naming where it is written
+        with pytest.raises(ConfigError, match=r"buses\.arm\.torque_constant"):
+            mit.drive_model_from_table(Table({"torque_constant": bad}, "bus.toml", "buses.arm"))

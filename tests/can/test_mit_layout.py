@@ -106,3 +106,11 @@ def test_errors_name_where_the_bad_value_is_written():
     refused("devices[0].drives.elbow.t_range", "min < max", drives={"elbow": {"t_range": [1.0, -1.0]}})
     refused("devices[0].drives.elbow.kp", "unknown key", drives={"elbow": {"kp": 3.0}})
     refused("devices[0].drives.wrist", "unknown key", drives={"wrist": {"direction": -1}})
+
+
+def test_a_joint_cannot_be_changed_in_place():
+    """The driver reads direction and offset every tick: a joint is fixed once the device is built."""
+    import dataclasses
+
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        read()[0].direction = -1.0

@@ -33,6 +33,16 @@ def test_controller_exception_engages_fallback_with_reason(rig):
     assert rig.step() == Verdict.FALLBACK  # latched though the controller recovered
 
 
+def test_a_raising_controller_is_one_fault_whatever_it_left_in_the_command(rig):
+    rig.command.tau_ff[:] = [math.nan, 1e9, 0.0]  # half-written: not checked, not counted, replaced
+    assert rig.step(controller_ok=False, error="ct: boom") == Verdict.FALLBACK
+    assert [f.kind for f in rig.stage.faults] == [FaultKind.CONTROLLER]
+    assert rig.stage.summary()["clamps"]["torque"] == [0, 0, 0]
+    rig.command.tau_ff[:] = 1e9  # while the fallback is in charge the controller's output is not bounded
+    assert rig.step() == Verdict.FALLBACK
+    assert rig.stage.summary()["clamps"]["torque"] == [0, 0, 0]
+
+
 def test_damp_fallback_is_pure_damping():
     r = Rig(fallback="damp", damping=3.0)
     r.state.velocity[:] = [1.0, -2.0, 0.5]

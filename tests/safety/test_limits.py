@@ -283,3 +283,19 @@ def test_a_stage_built_in_code_has_a_runs_defaults_but_holds_until_reset():
     assert (bare.fallback_kind, bare.stale_ticks, bare.estop_off_delay, bare.stop_velocity) == (
         run.fallback_kind, run.stale_ticks, run.estop_off_delay, run.stop_velocity)
     assert (bare.fault_off_delay, run.fault_off_delay) == (np.inf, 1.0)
+
+
+def test_a_torque_exactly_at_its_limit_passes_and_is_not_counted_as_a_clamp():
+    r = Rig()
+    r.command.tau_ff[:] = [TAU_MAX[0], -TAU_MAX[1], 0.0]
+    assert r.step() == Verdict.OK
+    np.testing.assert_array_equal(r.command.tau_ff, [TAU_MAX[0], -TAU_MAX[1], 0.0])
+    assert r.stage.summary()["clamps"]["torque"] == [0, 0, 0]
+
+
+def test_no_torque_past_a_soft_limit_is_not_counted_as_a_clamp():
+    r = Rig(position_margin=0.1)
+    r.state.position[:] = [0.95, -1.95, 2.95]  # past the upper, lower, upper soft limit
+    r.command.tau_ff[:] = [0.0, -0.0, 0.0]
+    assert r.step() == Verdict.OK
+    assert r.stage.summary()["clamps"]["position"] == [0, 0, 0]

@@ -158,6 +158,18 @@ def test_events_are_logged_and_passed_to_the_callback():
     assert r.stage.summary()["events"] == seen
 
 
+def test_a_raising_event_callback_is_logged_and_the_stop_goes_on():
+    def broken(event):
+        raise RuntimeError("disk full")
+
+    r = Rig(on_event=broken, estop_off_delay=0.0)
+    with structlog.testing.capture_logs() as logs:
+        r.stage.estop("socket")
+        assert r.step() == Verdict.DEACTIVATE
+    assert [e["event"] for e in r.stage.events] == ["fault", "deactivate"]
+    assert [e["error"] for e in logs if e["event"] == "on_event_failed"] == ["RuntimeError: disk full"] * 2
+
+
 # -- the verdict sequence under random events -------------------------------------------
 actions = st.lists(st.sampled_from(["tick", "tick", "tick", "nan", "raise", "fast", "far", "stale",
                                     "device", "estop", "reset", "recover"]), min_size=1, max_size=60)
