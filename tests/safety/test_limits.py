@@ -235,6 +235,17 @@ def test_small_impedance_gains_pass_unclamped():
     assert r.stage.summary()["clamps"]["impedance"] == [0, 0, 0]
 
 
+def test_impedance_gains_exactly_at_their_limits_pass_unclamped():
+    r = Rig(kp_max=200.0, kd_max=5.0)
+    c = r.command
+    c.mode = CommandMode.IMPEDANCE
+    c.kp[:], c.kd[:] = [200.0, 1.0, 200.0], [5.0, 5.0, 1.0]
+    assert r.step() == Verdict.OK
+    np.testing.assert_array_equal(c.kp, [200.0, 1.0, 200.0])
+    np.testing.assert_array_equal(c.kd, [5.0, 5.0, 1.0])
+    assert r.stage.summary()["clamps"]["impedance"] == [0, 0, 0]
+
+
 @pytest.mark.parametrize("option", [{"hold_stiffness": -1e-3}, {"damping": -1e-3},
                                     {"hold_stiffness": [50.0, -1.0, 50.0]}])
 def test_negative_fallback_gains_are_refused(option):

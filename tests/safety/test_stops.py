@@ -367,6 +367,16 @@ def test_a_nonfinite_command_fault_is_cleared_by_the_reset():
     assert r.stage.reset() and not r.stage.faults
 
 
+def test_a_nonfinite_command_fault_clears_even_while_its_device_still_reports_an_error():
+    r = Rig()
+    r.command.tau_ff[2] = math.nan
+    assert r.step() == Verdict.FALLBACK
+    r.statuses[0] = 1  # then the device (all three joints) reports an error, and goes on reporting it
+    r.step()
+    assert not r.stage.reset()
+    assert [f.kind for f in r.stage.faults] == [FaultKind.DEVICE_ERROR]
+
+
 def test_events_are_capped_and_the_rest_counted():
     from rtctl.safety.stage import _MAX_EVENTS
 
