@@ -80,6 +80,11 @@ def _urdf(joints, links=("base", "a", "b")):
     return f'<robot name="t">{body}{joints}</robot>'
 
 
+def _one_heavy_link(mass, ixx):
+    inertial = f'<inertial><mass value="{mass}"/><inertia ixx="{ixx}" iyy="1" izz="1"/></inertial>'
+    return f'<robot name="t"><link name="base"/><link name="a">{inertial}</link>{joint("j", "base", "a")}</robot>'
+
+
 REV = '<joint name="{n}" type="{t}"><parent link="{p}"/><child link="{c}"/><axis xyz="{ax}"/>{extra}</joint>'
 
 
@@ -97,6 +102,11 @@ def joint(n, p, c, t="revolute", ax="0 0 1", extra='<limit lower="-1" upper="1" 
     (_urdf(joint("j", "base", "a") + joint("k", "base", "b")), "serial chains"),
     (_urdf(joint("j", "base", "a") + joint("k", "a", "b", extra='<mimic joint="j"/>')), "lock it"),
     (_urdf(joint("j", "base", "a"), links=("base", "a", "b")), "one root"),
+    (_urdf(joint("j", "base", "a") + joint("j", "a", "b")), "two joints are named 'j'"),
+    (_urdf(joint("j", "base", "a", extra='<limit lower="-1" upper="1" effort="0" velocity="1"/>'),
+           links=("base", "a")), "effort > 0"),
+    (_one_heavy_link(mass="-1", ixx="1"), "value='-1'.* ≥ 0"),
+    (_one_heavy_link(mass="1", ixx="1e300"), "magnitude ≤"),
 ])
 def test_malformed_urdf_is_refused_with_a_reason(text, message):
     with pytest.raises(ModelError, match=message):
