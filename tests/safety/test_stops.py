@@ -270,6 +270,17 @@ def test_each_fault_kind_is_a_bit_of_its_own():
     assert all(b > 0 and b & (b - 1) == 0 for b in bits) and len(set(bits)) == len(bits) == 10
 
 
+def test_a_recorded_fault_cannot_be_changed():
+    """Faults are the run's record (summary, events, the control socket): nothing rewrites one."""
+    import dataclasses
+
+    r = Rig()
+    r.stage.estop()
+    r.step()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        r.stage.faults[0].joint = 0
+
+
 def test_robot_wide_faults_have_no_joint():
     class Raising:
         reason = ""
