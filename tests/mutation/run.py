@@ -4,6 +4,7 @@
     python tests/mutation/run.py all --sample 150
     python tests/mutation/run.py protocols         (protocols-mit, protocols-cia402, …)
     python tests/mutation/run.py safety --workdir DIR --resume   (a stopped run, or a sample, to the end)
+    python tests/mutation/run.py safety --workdir DIR --survivors   (only the survivors again, after new tests)
 
 For each target (see ``TARGETS``) it copies a committed tree (``git archive``, HEAD or ``--rev``) into a
 work directory — cosmic-ray rewrites the source on disk, one mutant at a time, so it must
@@ -127,11 +128,12 @@ def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD") 
     return report(name, tree, db)
 
 
-def resume_target(name: str, workdir: Path, rev: str = "HEAD") -> dict:
+def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = True) -> dict:
     """Continue the run of ``name`` in ``workdir`` (one that was stopped, or a sample to widen
     to every mutant): the tree is exported again at ``rev`` — the tests as they are now, and no
     mutant left planted by a stopped run — and every plausible mutant not yet killed is run:
-    those never run and the survivors, again."""
+    those never run and the survivors, again. ``widen=False`` keeps a sample as it is: only
+    the survivors (and what a stopped run left unfinished) run again."""
     from cosmic_ray.work_db import WorkDB, use_db
     from cosmic_ray.work_item import TestOutcome, WorkerOutcome
 
@@ -143,7 +145,8 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD") -> dict:
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         again = [item.job_id for item, result in work_db.completed_work_items
                  if all(plausible(m.operator_name) for m in item.mutations)
-                 and (result.worker_outcome == WorkerOutcome.SKIPPED or result.test_outcome == TestOutcome.SURVIVED)]
+                 and ((widen and result.worker_outcome == WorkerOutcome.SKIPPED)
+                      or result.test_outcome == TestOutcome.SURVIVED)]
     with sqlite3.connect(db) as con:
         con.executemany("DELETE FROM work_results WHERE job_id = ?", [(j,) for j in again])
     with use_db(str(db), WorkDB.Mode.open) as work_db:
@@ -193,13 +196,15 @@ def main(argv=None) -> int:
     p.add_argument("--rev", default="HEAD", help="the commit to test (default: HEAD)")
     p.add_argument("--resume", action="store_true",
                    help="continue the run in --workdir: what was not run, and the survivors again, at --rev")
+    p.add_argument("--survivors", action="store_true",
+                   help="run the survivors of the run in --workdir again at --rev (after new tests), keeping its sample")
     args = p.parse_args(argv)
-    if args.resume and (args.workdir is None or args.sample is not None):
-        p.error("--resume continues the run in --workdir, with every mutant (no --sample)")
+    if (args.resume or args.survivors) and (args.workdir is None or args.sample is not None):
+        p.error("--resume and --survivors continue the run in --workdir (no --sample: it keeps its own)")
     workdir = args.workdir or Path(tempfile.mkdtemp(prefix="rtctl-mutation-"))
     names = GROUPS.get(args.target, [args.target])
-    results = [resume_target(n, workdir, args.rev) if args.resume else run_target(n, workdir, args.sample, args.rev)
-               for n in names]
+    results = [resume_target(n, workdir, args.rev, widen=not args.survivors) if args.resume or args.survivors
+               else run_target(n, workdir, args.sample, args.rev) for n in names]
     print(f"\n{'target':<18} {'mutants':>8} {'killed':>7} {'t/o':>5} {'survived':>9} {'rate':>7}")
     for r in results:
         rate = "" if r["survival_rate"] is None else f"{100 * r['survival_rate']:.1f} %"
