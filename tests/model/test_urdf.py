@@ -113,6 +113,13 @@ def test_malformed_urdf_is_refused_with_a_reason(text, message):
         parse_urdf(text)
 
 
+def test_an_unreadable_file_is_refused_saying_why_once(tmp_path):
+    missing = tmp_path / "arm.urdf"
+    with pytest.raises(ModelError) as e:
+        load_urdf(missing)
+    assert str(e.value) == f"{missing}: cannot read URDF (No such file or directory)"
+
+
 def test_lock_and_unknown_lock():
     text = _urdf(joint("j", "base", "a") + joint("k", "a", "b", t="prismatic", ax="1 0 0"))
     model = parse_urdf(text, lock={"k": 0.25})
