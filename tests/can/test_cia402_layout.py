@@ -59,6 +59,7 @@ def test_the_rated_torque_is_whole_milli_newton_metres():
 
 def test_one_revolution_is_counts_per_rev_increments():
     j = Cia402Joint("a", 1, 1.0, 1 << 20)
+    assert (j.direction, j.offset) == (1.0, 0.0)  # built without a mounting: the drive's zero and sense
     assert j.counts_per_rad * 2 * math.pi == pytest.approx(1 << 20, rel=1e-12)
     assert [read(["a"], rated_torque=1.0, counts_per_rev=n)[0].counts_per_rev for n in (1, 2**31 - 1)] == [1, 2**31 - 1]
     for bad in (0, 2**31, 1.5):

@@ -164,6 +164,15 @@ def test_the_pdo_layout_is_python_canopens_reading_of_the_eds():
     assert busload.PROTOCOLS["cia402"].per_joint == layout.frame_lengths == (4, 8, 4)
 
 
+def test_a_pdo_layout_cannot_be_changed_in_place():
+    """One layout serves every drive on the bus, and each PDO's codec is built from its slots once."""
+    import dataclasses
+
+    pdo = c.PdoLayout.from_eds().tpdos[0]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        pdo.slots = pdo.slots[::-1]
+
+
 def _fields(pdo):
     index = {name: i for i, name in {**c.COMMAND_FIELDS, **c.STATE_FIELDS}.items()}
     out, offset = [], 0
@@ -267,21 +276,21 @@ def test_cob_ids_states_and_modes_are_python_canopens(tmp_path):
 
 
 # CiA 301 / CiA 402-2 names of the objects the driver and the emulated drive exchange
-STANDARD_OBJECTS = {
-    c.DEVICE_TYPE: "Device type", c.ERROR_REGISTER: "Error register", c.HEARTBEAT_TIME: "Producer heartbeat time",
-    c.ERROR_CODE: "Error code", c.CONTROLWORD: "Controlword", c.STATUSWORD: "Statusword",
-    c.MODES_OF_OPERATION: "Modes of operation", c.MODES_DISPLAY: "Modes of operation display",
-    c.POSITION: "Position actual value", c.VELOCITY: "Velocity actual value", c.TARGET_TORQUE: "Target torque",
-    c.MAX_TORQUE: "Max torque", c.RATED_TORQUE: "Motor rated torque", c.TORQUE: "Torque actual value",
-    c.ENCODER_RESOLUTION: "Position encoder resolution", c.SUPPORTED_MODES: "Supported drive modes",
-    c.RPDO_COMM: "RPDO1 communication parameter", c.RPDO_MAP: "RPDO1 mapping parameter",
-    c.TPDO_COMM: "TPDO1 communication parameter", c.TPDO_MAP: "TPDO1 mapping parameter",
-}
+STANDARD_OBJECTS = [  # (index, name): a list, so that two constants with one index both show
+    (c.DEVICE_TYPE, "Device type"), (c.ERROR_REGISTER, "Error register"), (c.HEARTBEAT_TIME, "Producer heartbeat time"),
+    (c.ERROR_CODE, "Error code"), (c.CONTROLWORD, "Controlword"), (c.STATUSWORD, "Statusword"),
+    (c.MODES_OF_OPERATION, "Modes of operation"), (c.MODES_DISPLAY, "Modes of operation display"),
+    (c.POSITION, "Position actual value"), (c.VELOCITY, "Velocity actual value"), (c.TARGET_TORQUE, "Target torque"),
+    (c.MAX_TORQUE, "Max torque"), (c.RATED_TORQUE, "Motor rated torque"), (c.TORQUE, "Torque actual value"),
+    (c.ENCODER_RESOLUTION, "Position encoder resolution"), (c.SUPPORTED_MODES, "Supported drive modes"),
+    (c.RPDO_COMM, "RPDO1 communication parameter"), (c.RPDO_MAP, "RPDO1 mapping parameter"),
+    (c.TPDO_COMM, "TPDO1 communication parameter"), (c.TPDO_MAP, "TPDO1 mapping parameter"),
+]
 
 
 def test_object_indices_name_the_standards_objects():
     od = canopen.import_od(str(c.EDS), 1)
-    assert {index: od[index].name for index in STANDARD_OBJECTS} == STANDARD_OBJECTS
+    assert [(index, od[index].name) for index, _ in STANDARD_OBJECTS] == STANDARD_OBJECTS
     assert od[c.RPDO_COMM][c.EVENT_TIMER].name == "Event timer"
 
 
