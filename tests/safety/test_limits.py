@@ -107,6 +107,9 @@ def test_limits_table_refuses_nonsense():
     for factor in (0.0, -1.0):
         with pytest.raises(ValueError):
             limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, velocity_factor=factor)
+    for margin in (-1e-3, [0.0, -0.5, 0.0]):  # soft limits outside the hard ones
+        with pytest.raises(ValueError, match="position_margin"):
+            limits_table(Q_MIN, Q_MAX, V_MAX, TAU_MAX, position_margin=margin)
 
 
 def test_the_hard_limits_are_inclusive_and_a_reset_exactly_there_clears():
@@ -235,14 +238,16 @@ def test_small_impedance_gains_pass_unclamped():
     assert r.stage.summary()["clamps"]["impedance"] == [0, 0, 0]
 
 
-def test_impedance_gains_exactly_at_their_limits_pass_unclamped():
+def test_impedance_gains_and_velocities_exactly_at_their_limits_pass_unclamped():
     r = Rig(kp_max=200.0, kd_max=5.0)
     c = r.command
     c.mode = CommandMode.IMPEDANCE
     c.kp[:], c.kd[:] = [200.0, 1.0, 200.0], [5.0, 5.0, 1.0]
+    c.qd_des[:] = [V_MAX[0], -V_MAX[1], 0.0]  # and target velocities exactly at theirs
     assert r.step() == Verdict.OK
     np.testing.assert_array_equal(c.kp, [200.0, 1.0, 200.0])
     np.testing.assert_array_equal(c.kd, [5.0, 5.0, 1.0])
+    np.testing.assert_array_equal(c.qd_des, [V_MAX[0], -V_MAX[1], 0.0])
     assert r.stage.summary()["clamps"]["impedance"] == [0, 0, 0]
 
 

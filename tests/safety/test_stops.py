@@ -38,6 +38,15 @@ def test_estop_deactivates_as_soon_as_the_robot_is_still():
     assert r.step() == Verdict.DEACTIVATE
 
 
+def test_a_stop_goes_on_while_the_speed_is_exactly_the_stop_velocity():
+    r = Rig(estop_off_delay=10.0, stop_velocity=0.25)  # exact in binary
+    r.state.velocity[:] = [0.25, -0.25, 0.0]
+    r.stage.estop()
+    assert [r.step() for _ in range(3)] == [Verdict.FALLBACK] * 3  # "still" is strictly slower
+    r.state.velocity[:] = np.nextafter(0.25, 0.0)
+    assert r.step() == Verdict.DEACTIVATE
+
+
 def test_estop_with_zero_delay_is_category_0():
     r = Rig(estop_off_delay=0.0)
     r.state.velocity[:] = 1.0
