@@ -1,5 +1,6 @@
 """The CiA 402 drive layout of a [[devices]] table (drivers.protocols.cia402_layout): node ids,
 the drives' scaling, mounting and EDS, and the refusals naming the key."""
+import dataclasses
 import math
 import shutil
 
@@ -48,8 +49,9 @@ def test_the_rated_torque_is_whole_milli_newton_metres():
     # 0x6076 counts mN·m: what the driver writes and checks is the configured value rounded
     (j,) = read(["a"], rated_torque=12.3456)
     assert j.rated_torque == 12.346 and j.rated_torque_mnm == 12346
-    (j,) = read(["a"], rated_torque=0.001)
-    assert j.rated_torque_mnm == 1
+    for smallest in (0.001, 0.0005002):  # anything that rounds to 1 mN·m
+        (j,) = read(["a"], rated_torque=smallest)
+        assert (j.rated_torque, j.rated_torque_mnm) == (0.001, 1)
     assert read(["a"], rated_torque=4_000_000.0)[0].rated_torque_mnm == 4_000_000_000
     for bad in (0.0004, 0.0005, 4_000_001.0):  # 0.0005 rounds to 0 mN·m (half to even)
         refused("devices[0].rated_torque", None, ["a"], rated_torque=bad)
@@ -60,6 +62,8 @@ def test_the_rated_torque_is_whole_milli_newton_metres():
 def test_one_revolution_is_counts_per_rev_increments():
     j = Cia402Joint("a", 1, 1.0, 1 << 20)
     assert (j.direction, j.offset) == (1.0, 0.0)  # built without a mounting: the drive's zero and sense
+    with pytest.raises(dataclasses.FrozenInstanceError):  # the driver reads its scale and mounting once
+        j.offset = 0.5
     assert j.counts_per_rad * 2 * math.pi == pytest.approx(1 << 20, rel=1e-12)
     assert [read(["a"], rated_torque=1.0, counts_per_rev=n)[0].counts_per_rev for n in (1, 2**31 - 1)] == [1, 2**31 - 1]
     for bad in (0, 2**31, 1.5):

@@ -168,9 +168,12 @@ def test_a_pdo_layout_cannot_be_changed_in_place():
     """One layout serves every drive on the bus, and each PDO's codec is built from its slots once."""
     import dataclasses
 
-    pdo = c.PdoLayout.from_eds().tpdos[0]
+    layout = c.PdoLayout.from_eds()
+    pdo = layout.tpdos[0]
     with pytest.raises(dataclasses.FrozenInstanceError):
         pdo.slots = pdo.slots[::-1]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        layout.tpdos = layout.tpdos[:1]
 
 
 def _fields(pdo):
@@ -211,7 +214,7 @@ def test_a_pdo_set_the_driver_cannot_use_is_refused():
     with pytest.raises(ValueError, match="0x606c"):
         c.PdoLayout.from_od(od)
     for entry, match in ((0x60410010, "mapping 0x1a01: object 0x6041 is mapped twice"),
-                         (0x606C0010, "16 bits for 0x606c, a 32-bit object"), (0x606C0021, "33 bits for 0x606c")):
+                         (0x606C0010, "mapping 0x1a01: 16 bits for 0x606c, a 32-bit object"), (0x606C0021, "33 bits for 0x606c")):
         od = canopen.import_od(str(c.EDS), 0)
         od[c.TPDO_MAP + 1][1].default = entry
         with pytest.raises(ValueError, match=match):
@@ -251,6 +254,13 @@ def test_the_four_predefined_pdos_are_read_and_no_other(tmp_path):
     for edits in ((("1801", "1804"), ("1A01", "1A04")), (("$NODEID+0x280", "0x80000280"),)):
         with pytest.raises(ValueError, match="0x606c"):
             c.PdoLayout.from_eds(eds_variant(tmp_path, *edits))
+    # a disabled TPDO2 before it is skipped, not the end of the search
+    path = eds_variant(tmp_path, ("1801", "1803"), ("1A01", "1A03"), ("$NODEID+0x280", "$NODEID+0x480"))
+    od = canopen.import_od(str(path), 0)
+    for record in (c.TPDO_COMM + 1, c.TPDO_MAP + 1):
+        od.add_object(canopen.import_od(str(c.EDS), 0)[record])
+    od[c.TPDO_COMM + 1][1].default |= 0x8000_0000
+    assert [p.number for p in c.PdoLayout.from_od(od).tpdos] == [1, 4]
 
 
 def test_cob_ids_states_and_modes_are_python_canopens(tmp_path):
