@@ -146,6 +146,30 @@ def test_impossible_buses_are_refused(kw):
         busload.bus_load("a", "mit", args["joints"], args["rate_hz"], args["bitrate"])
 
 
+def test_slow_rates_are_buses_like_any_other():
+    assert busload.bus_load("a", "mit", 3, 0.5, 1_000_000).bits_per_second == 375.0
+
+
+def test_a_bus_whose_own_frames_overflow_it_carries_no_joint_not_fewer():
+    # a 55-bit SYNC every 0.5 ms on 125 kbit/s is 88 % before any drive
+    assert busload.bus_load("b", "cia402", 1, 2000, 125_000).max_joints() == 0
+
+
+def test_odd_bitrates_are_shown_as_they_are():
+    load = busload.bus_load("b", "mit", 1, 100, 83_333)
+    assert "on 83.333 kbit/s" in load.describe()
+    assert busload.format_budget([load]).splitlines()[1].split()[4] == "83.333"
+
+
+def test_the_frame_tables_are_shared_and_cannot_be_changed_in_place():
+    import dataclasses
+
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        busload.PROTOCOLS["mit"].per_joint = (8,)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        busload.bus_load("a", "mit", 1, 1000, 1_000_000).joints = 2
+
+
 def test_a_bus_without_joints_costs_only_its_own_frames():
     assert busload.bus_load("a", "mit", 0, 1000, 1_000_000).bits_per_tick == 0
     assert busload.bus_load("a", "cia402", 0, 1000, 1_000_000).bits_per_tick == 55  # the SYNC
