@@ -86,9 +86,9 @@ class Decoder:
     """Frames of one type (SENSOR or COMMAND) out of a byte stream; see the module doc.
 
     After :meth:`feed`, ``frames`` says how many valid frames it held; the newest one's fields
-    are in ``seq``, ``status`` and ``channels`` (sensor) or ``actions`` (command)."""
-
-    MAX_BUFFER = 4096  # a host that stops reading does not make us hoard bytes
+    are in ``seq``, ``status`` and ``channels`` (sensor) or ``actions`` (command). Between
+    feeds it keeps at most one frame's beginning (fewer bytes than a frame), however much
+    garbage arrives."""
 
     def __init__(self, kind: int):
         if kind not in (SENSOR, COMMAND):
@@ -132,9 +132,6 @@ class Decoder:
                 self.counters["skipped_bytes"] += 1
                 start = i + 1  # not a frame here: look for the next sync from the next byte
         del buf[:start]
-        if len(buf) > self.MAX_BUFFER:
-            self.counters["skipped_bytes"] += len(buf) - self.length
-            del buf[:len(buf) - self.length]
         return found
 
     def _accept(self, buf, at: int) -> None:
