@@ -220,3 +220,57 @@ def test_a_long_stale_episode_is_logged_once_even_with_a_full_event_list(rig):
             r.tick()
     stale = [e for e in logs if e["event"] == "stale"]
     assert len(stale) == 2  # one per episode, not one per tick
+
+
+def test_the_stale_count_starts_afresh_at_activation(rig):
+    r = rig()
+    r.activate()
+    r.drive_list[1].faults.silent = True  # dead from the first tick on: the limit (3) counts from here
+    assert [r.tick()[0] for _ in range(4)] == [Status.OK, Status.OK, Status.OK, Status.ERROR]
+
+
+def test_exit_motor_mode_is_sent_three_times_before_deactivate_gives_up(rig):
+    r = rig()
+    r.activate()
+    r.tick()
+    r.drive_list[1].faults.drop_rate = 1.0  # it hears every exit; its answers are lost
+    before = [d.counters.specials for d in r.drive_list]
+    r.deactivate()  # never raises: the failure is the device's last error
+    assert [d.counters.specials - b for d, b in zip(r.drive_list, before)] == [3, 3]
+    assert "0x2" in r.last_error and "exit motor mode" in r.last_error
+
+
+def test_torque_mode_zeroes_the_targets_as_well_as_the_gains(rig):
+    r = rig()
+    r.activate()
+    r.command.mode = CommandMode.TORQUE
+    r.command.q_des[:], r.command.qd_des[:] = 1.0, 2.0  # ignored in torque mode
+    r.tick()
+    for d in r.drive_list:
+        assert abs(d.command.p) <= P_LSB and abs(d.command.v) <= V_LSB
+
+
+def test_error_frames_and_empty_frames_on_the_master_id_are_counted_and_ignored(rig):
+    r = rig()
+    r.activate()
+    r.peer.send(can.Message(arbitration_id=0, is_error_frame=True))
+    r.peer.send(can.Message(arbitration_id=0, data=b"", is_extended_id=False))
+    assert r.tick() == (Status.OK, Status.OK)
+    assert r.counters["error_frames"] == 1 and r.counters["foreign_frames"] == 1
+
+
+def test_a_malformed_frame_is_no_drives_answer(rig):
+    r = rig()
+    r.activate()
+    r.tick()
+    r.drive_list[0].faults.silent = True
+    for _ in range(3):  # a truncated frame each tick, while drive 1 says nothing
+        r.peer.send(can.Message(arbitration_id=0, data=b"\x01\x02\x03", is_extended_id=False))
+        r.tick()
+    assert r.counters["missing_replies"] == 3 and r.counters["malformed_replies"] == 3
+
+
+def test_drive_id_0xff_is_a_drive_like_any_other(rig):
+    r = rig([MitJoint("a", 0xFF, KATZ), MitJoint("b", 2, KATZ)])
+    r.activate()
+    assert r.tick() == (Status.OK, Status.OK) and np.all(r.state.fresh)
