@@ -55,7 +55,8 @@ TARGETS = {
                          "tests/can/test_cia402_layout.py tests/can/test_cia402_protocol.py "
                          "tests/can/test_cia402_driver.py", 240),
     "protocols-leg": (["drivers/protocols/leg_board.py"], "tests/leg/test_codec.py tests/leg/test_serial_board.py", 180),
-    "can_joints": (["drivers/can_joints.py"], "tests/can/test_mit_can_driver.py tests/hil/test_can_config.py", 240),
+    "can_joints": (["drivers/can_joints.py"], "tests/can/test_mit_can_driver.py tests/can/test_mit_can_config.py "
+                   "tests/hil/test_can_config.py", 240),
     "urdf": (["rtctl/model/urdf.py"], "tests/model/test_urdf.py", 180),
     "control": (["rtctl/control"], "tests/control", 600),
 }
