@@ -101,15 +101,11 @@ def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD") 
     from cosmic_ray.work_db import WorkDB, use_db
     from cosmic_ray.work_item import WorkerOutcome, WorkResult
 
-    paths, tests, timeout = TARGETS[name]
     tree = workdir / name
     tree.mkdir(parents=True, exist_ok=True)
     export_tree(tree, rev)
-    tests = " ".join(t for t in tests.split() if (tree / t).exists())  # (a test file that moved)
     config, db = tree / "cosmic-ray.toml", tree / "session.sqlite"
-    modules = ", ".join(json.dumps(str(tree / p)) for p in paths)
-    config.write_text(f'[cosmic-ray]\nmodule-path = [{modules}]\ntimeout = {float(timeout)}\nexcluded-modules = []\n'
-                      f'test-command = "{PYTEST} {tests}"\n\n[cosmic-ray.distributor]\nname = "local"\n')
+    tests = _write_config(name, tree, config)
     env = _env(tree)
     subprocess.run([*CR, "init", config, db], cwd=tree, env=env, check=True, capture_output=True)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
@@ -129,6 +125,17 @@ def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD") 
     return report(name, tree, db)
 
 
+def _write_config(name: str, tree: Path, config: Path) -> str:
+    """cosmic-ray's configuration for ``name`` in ``tree``, with the target's tests as they are
+    now (a resumed run picks up new test files); returns the tests."""
+    paths, tests, timeout = TARGETS[name]
+    tests = " ".join(t for t in tests.split() if (tree / t).exists())  # (a test file that moved)
+    modules = ", ".join(json.dumps(str(tree / p)) for p in paths)
+    config.write_text(f'[cosmic-ray]\nmodule-path = [{modules}]\ntimeout = {float(timeout)}\nexcluded-modules = []\n'
+                      f'test-command = "{PYTEST} {tests}"\n\n[cosmic-ray.distributor]\nname = "local"\n')
+    return tests
+
+
 def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = True) -> dict:
     """Continue the run of ``name`` in ``workdir`` (one that was stopped, or a sample to widen
     to every mutant): the tree is exported again at ``rev`` — the tests as they are now, and no
@@ -143,6 +150,7 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
     if not db.exists():
         raise SystemExit(f"{name}: no run to resume in {tree}")
     export_tree(tree, rev)
+    _write_config(name, tree, config)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         again = [item.job_id for item, result in work_db.completed_work_items
                  if all(plausible(m.operator_name) for m in item.mutations)
