@@ -274,3 +274,12 @@ def test_drive_id_0xff_is_a_drive_like_any_other(rig):
     r = rig([MitJoint("a", 0xFF, KATZ), MitJoint("b", 2, KATZ)])
     r.activate()
     assert r.tick() == (Status.OK, Status.OK) and np.all(r.state.fresh)
+
+
+def test_an_activation_on_a_broken_link_fails_as_a_bus_error(rig):
+    r = rig()
+    r.configure()
+    r.bus.shutdown()  # the link breaks between configure and activate
+    with pytest.raises(HardwareError, match="enter motor mode: bus error"):
+        r.activate()  # and the exit it then sends to leave no drive enabled cannot hide that
+    assert not any(d.enabled for d in r.drive_list)
