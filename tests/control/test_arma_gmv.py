@@ -60,6 +60,7 @@ def _one_tick_rig(c, cfg):
     ("position", "joint 'shoulder': non-finite measured position y"),
     ("estimate", "joint 'shoulder': non-finite noise variance R̂"),
     ("torque", "joint 'shoulder': non-finite torque u"),
+    ("reference", "joint 'shoulder': non-finite reference y*"),
 ])
 def test_non_finite_values_fail_the_controller_and_the_safety_stage_takes_over(tmp_path, poison, expected):
     cfg, c = shipped(tmp_path, adapt="{ r = true, R = true, q = false, Q = false }")
@@ -68,6 +69,8 @@ def test_non_finite_values_fail_the_controller_and_the_safety_stage_takes_over(t
     tau_before = cmd.tau_ff.copy()
     if poison == "position":
         state.position[1] = np.nan
+    elif poison == "reference":
+        ref.q[1] = np.inf
     elif poison == "estimate":
         state.position[1] = 1e308  # ε² overflows (25)
     else:

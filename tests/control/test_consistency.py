@@ -4,6 +4,7 @@ eigen-solver against numpy, and the two properties the Lyapunov argument needs: 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 from rtctl.control.consistency import MAX_CORRECTIONS, TOLERANCE, project_link, pseudo_inertia, \
@@ -48,6 +49,19 @@ def test_jacobi_matches_numpy(seed):
     scale = np.abs(M).max()
     np.testing.assert_allclose(np.sort(np.diag(A)), np.linalg.eigvalsh(M), atol=1e-12 * scale)
     np.testing.assert_allclose(V @ np.diag(np.diag(A)) @ V.T, M, atol=1e-11 * scale)
+
+
+@pytest.mark.parametrize("M", [
+    np.diag([1.0, 2.0, 3.0, 4.0]) + 0.3 * (np.eye(4, k=3) + np.eye(4, k=-3)),  # coupled to the last axis only
+    np.array([[4.0, 0.0, 0.0, 1.0], [0.0, 3.0, 0.0, 0.5], [0.0, 0.0, 2.0, 0.25], [1.0, 0.5, 0.25, 1.0]]),
+    np.array([[1.0, 0.5, 0.0, 0.0], [0.5, 1.5, 0.0, 0.0], [0.0, 0.0, 2.0, 0.0], [0.0, 0.0, 0.0, 3.0]]),  # θ = 0.5
+])
+def test_jacobi_matches_numpy_on_sparse_couplings(M):
+    A, V = M.copy(), np.zeros((4, 4))
+    symmetric_eigen4(A, V)
+    np.testing.assert_allclose(np.sort(np.diag(A)), np.linalg.eigvalsh(M), atol=1e-12)
+    np.testing.assert_allclose(V @ np.diag(np.diag(A)) @ V.T, M, atol=1e-11)
+    np.testing.assert_allclose(V.T @ V, np.eye(4), atol=1e-12)
 
 
 @settings(max_examples=80, deadline=None)
