@@ -31,6 +31,7 @@ def test_without_settings_a_device_has_the_drivers_defaults_and_each_is_a_value_
     constructor = inspect.signature(MitCanJointGroup.__init__).parameters
     assert defaults == pytest.approx({key: constructor[key].default for key in TIMING}, rel=1e-12)
     assert timing(from_config(**defaults)) == pytest.approx(defaults, rel=1e-12)  # written out, they pass
+    assert from_config().set_zero_at_configure is constructor["set_zero"].default is False  # never unasked
 
 
 @pytest.mark.parametrize("key, accepted, refused", [

@@ -188,8 +188,17 @@ def test_a_drive_error_code_is_reported_per_joint(rig):
     r.tick()
     r.drive_list[1].set_error(0xA)  # Damiao: state ≥ 8 in the reply's high nibble is an error
     r.tick()
-    assert r.tick()[0] == Status.ERROR
+    assert [r.tick()[0] for _ in range(3)] == [Status.ERROR] * 3
     assert list(r.state.fault) == [0, 0xA]
+    assert [e["event"] for e in r.events].count("drive_error") == 1  # one event per episode
+
+
+def test_a_failed_configure_leaves_the_bus_closed(rig):
+    r = rig()
+    r.drive_list[0].faults.silent = True
+    with pytest.raises(HardwareError, match="0x1.*exit motor mode"):
+        r.configure()
+    assert r.bus is None
 
 
 def test_enter_motor_mode_must_be_answered_by_every_drive(rig):
