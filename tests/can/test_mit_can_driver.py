@@ -268,15 +268,20 @@ def test_error_frames_and_empty_frames_on_the_master_id_are_counted_and_ignored(
     assert r.counters["error_frames"] == 1 and r.counters["foreign_frames"] == 1
 
 
-def test_a_malformed_frame_is_no_drives_answer(rig):
+@pytest.mark.parametrize("frame, counter", [
+    (can.Message(arbitration_id=0, data=b"\x01\x02\x03", is_extended_id=False), "malformed_replies"),  # truncated
+    (can.Message(arbitration_id=0x123, data=b"\x01" + bytes(5), is_extended_id=False), "foreign_frames"),
+    (can.Message(arbitration_id=0, data=b"\x01" + bytes(5), is_error_frame=True), "error_frames"),
+])
+def test_a_malformed_foreign_or_error_frame_is_no_drives_answer(rig, frame, counter):
     r = rig()
     r.activate()
     r.tick()
     r.drive_list[0].faults.silent = True
-    for _ in range(3):  # a truncated frame each tick, while drive 1 says nothing
-        r.peer.send(can.Message(arbitration_id=0, data=b"\x01\x02\x03", is_extended_id=False))
+    for _ in range(3):  # such a frame each tick, while drive 1 says nothing
+        r.peer.send(frame)
         r.tick()
-    assert r.counters["missing_replies"] == 3 and r.counters["malformed_replies"] == 3
+    assert r.counters["missing_replies"] == 3 and r.counters[counter] == 3
 
 
 def test_drive_id_0xff_is_a_drive_like_any_other(rig):
