@@ -17,7 +17,12 @@ up devices that name the same bus). Options (the ``[[devices]]`` table; drive la
 Lifecycle: ``configure`` opens the bus and sends *exit motor mode* to every drive — answered
 with its state, so states are readable and nothing is enabled (a drive left on by a crashed
 run is turned off). ``activate`` sends *enter motor mode* and requires every answer.
-``deactivate`` sends *exit motor mode*, always (reopening the bus once if it was lost).
+``deactivate`` sends *exit motor mode*, always (reopening the bus once if it was lost), up to
+three times until every drive answered it. A drive answers every frame, in order, and the
+Katz reply does not say whether the motor is on: so the answer to a mode frame is the last
+reply a drive owes (the driver counts the frames each drive has not answered), never a late
+reply to an earlier command. A drive that does not answer makes ``deactivate`` fail (the
+daemon reports it and exits 4): its watchdog is then what turns it off.
 
 Per tick: the drives answer only commands, so ``write()`` sends all commands and then collects
 the replies until every drive answered or ``reply_deadline × period`` passed, blocking in
@@ -88,6 +93,9 @@ class MitCanJointGroup(CanJointGroup):
             self._replies[:, c] for c in (REPLY_POSITION, REPLY_VELOCITY, REPLY_EFFORT, REPLY_ERROR))
         self._got = np.zeros(n, dtype=bool)  # a reply since the last read
         self._cycle = np.zeros(n, dtype=bool)  # a reply in the current collection
+        # frames each drive has not answered yet: a drive answers in order, so its answer to a
+        # frame just sent is the last reply it owes — not a late one to an earlier command
+        self._owed = [0] * n
         self._tmp = np.zeros(n)
         self._p, self._v, self._tau, self._zero = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
 
@@ -170,6 +178,10 @@ class MitCanJointGroup(CanJointGroup):
     def _on_close(self) -> None:
         self._close_bus()
 
+    def _open(self) -> None:
+        super()._open()
+        self._forget_owed()  # a new link: nothing sent on the old one will be answered on it
+
     def set_zero(self) -> None:
         """Make every drive's present position its zero (FE). Refused while active: the
         set-point would jump under a live motor."""
@@ -232,6 +244,7 @@ class MitCanJointGroup(CanJointGroup):
             bus = self.bus
             for m in messages:
                 bus.send(m)
+            self._sent_to_all()
             self._last_sent = self._clock()
             self._after_send()
             missing = self._collect(self.reply_timeout)
@@ -244,6 +257,24 @@ class MitCanJointGroup(CanJointGroup):
         """Receive until every drive answered or ``timeout`` s passed; returns how many did not."""
         self._cycle.fill(False)
         return self._receive(len(self._cycle), timeout, self._take_reply)
+
+    def _take_answer(self, msg) -> int:
+        """1 when ``msg`` is the last reply a drive owed (its answer to the frame just sent), else 0."""
+        row = self._take(msg)
+        if row >= 0 and self._owed[row] == 0 and not self._cycle[row]:
+            self._cycle[row] = True
+            return 1
+        return 0
+
+    def _sent_to_all(self) -> None:
+        owed = self._owed
+        for row in range(len(owed)):
+            owed[row] += 1
+
+    def _forget_owed(self) -> None:
+        owed = self._owed
+        for row in range(len(owed)):
+            owed[row] = 0
 
     def _take_reply(self, msg) -> int:
         """1 when ``msg`` is the first reply of a drive in this collection, else 0."""
@@ -268,31 +299,40 @@ class MitCanJointGroup(CanJointGroup):
             return -1
         mit.unpack_reply_into(data, self._models[row], self._replies, row)
         self._got[row] = True
+        if self._owed[row]:
+            self._owed[row] -= 1
         return row
 
     def _send_special(self, kind: Special) -> None:
         try:
             for m in self._specials[kind]:
                 self.bus.send(m)
+            self._sent_to_all()
             self._after_send()
         except Exception as e:
             self.last_error = f"{kind.name.lower()}: {type(e).__name__}: {e}"
 
     def _exchange(self, kind: Special, what: str) -> None:
-        """Send ``kind`` to every drive and require every answer (HardwareError naming the silent ones)."""
+        """Send ``kind`` to every drive and require every answer: each drive's last reply owed
+        (HardwareError naming the silent ones)."""
         if self.bus is None:
             raise HardwareError(f"{self.name}: {what}: the bus is not open")
         try:
+            while (msg := self.bus.recv(0.0)) is not None:  # the late replies that came already
+                self._take(msg)
             for m in self._specials[kind]:
                 self.bus.send(m)
+            self._sent_to_all()
             self._after_send()
-            self._collect(self.exchange_timeout)
+            self._cycle.fill(False)
+            self._receive(len(self._cycle), self.exchange_timeout, self._take_answer)
         except Exception as e:
             self._close_bus()
             raise HardwareError(f"{self.name}: {what}: bus error: {type(e).__name__}: {e}") from e
         self._stamp = self._clock()
         silent = [j.drive_id for j, ok in zip(self.joints, self._cycle) if not ok]
         if silent:
+            self._forget_owed()  # lost, or later than any answer awaited: the next exchange starts afresh
             raise HardwareError(
                 f"{self.name}: drive(s) {', '.join(f'{i:#x}' for i in silent)} did not answer {what} within "
                 f"{self.exchange_timeout:g} s on {self.bus_options.label} (power, ids, bitrate, termination?)")

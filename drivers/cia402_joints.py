@@ -191,21 +191,21 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         self._disable_all(raise_errors=True)
 
     def _disable_all(self, raise_errors: bool = False) -> None:
-        """*Disable voltage* until every drive that still answers confirms. Not awaited: a drive
-        silent before (its own RPDO deadline turns it off once our RPDOs stop), and any drive
-        longer than half that deadline — the next device on the loop must not starve past its
-        drives' deadlines while this one waits."""
-        reachable = self._stale == 0
+        """*Disable voltage* until every drive confirms, within half their RPDO deadline: the
+        next device on the loop must not starve past its drives' deadlines while this one
+        waits. A drive that does not confirm (silent, or its answer lost) is an error, also
+        when it was silent before: its own deadline turns it off once our RPDOs stop, but
+        nothing here has seen it off."""
+        silent = self._stale > 0
         try:
             self._cycle_until(lambda row, sw: c.CW_DISABLE_VOLTAGE, lambda sw: c.state_of(sw) in DISABLED,
-                              "disable (SWITCH ON DISABLED)", rows=reachable, budget=self.drive_timeout / 2)
+                              "disable (SWITCH ON DISABLED)", budget=self.drive_timeout / 2)
         except Exception as e:
-            self.last_error = f"disable: {e}"
+            self.last_error = f"disable: {e}" + (f"; node(s) {self._ids(silent)} silent before: their RPDO "
+                                                  f"deadline ({1e3 * self.drive_timeout:g} ms) turns them off"
+                                                  if silent.any() else "")
             if raise_errors:
-                raise
-        if not reachable.all():
-            self._event("unreachable", f"node(s) {self._ids(~reachable)} silent at deactivate: their RPDO deadline "
-                                       f"({1e3 * self.drive_timeout:g} ms) turns them off")
+                raise HardwareError(f"{self.name}: {self.last_error}") from e
 
     def _on_close(self) -> None:
         if self.bus is not None and self.network is not None:

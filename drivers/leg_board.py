@@ -15,7 +15,7 @@ fault: the loop locks both joints (a silent board → safe state within that man
 board's own watchdog locks them too when our commands stop). Lost, garbled and foreign bytes
 are counted (:class:`~drivers.protocols.leg_board.Decoder`); a closed or failing port is an
 ERROR. ``configure`` opens the port and needs one sensor frame (states readable);
-``deactivate`` sends lock commands.
+``deactivate`` sends lock commands until the board reports both joints locked (else it fails).
 """
 from __future__ import annotations
 
@@ -30,6 +30,7 @@ from rtctl.hal.leg_board import LegBoard
 from rtctl.tomltable import expand_env
 
 LOCK_REPEATS = 3
+LOCKED = proto.pack_actions(proto.HOLD, proto.HOLD)
 
 
 class SerialLegBoard(LegBoard):
@@ -73,10 +74,14 @@ class SerialLegBoard(LegBoard):
                                 f"within {self.exchange_timeout} s ({self.decoder.counters})")
 
     def _on_deactivate(self) -> None:
+        """Lock both joints until a sensor frame reports both locked (its status: the actions
+        the board applies; a late frame from before says otherwise)."""
         self.safe_state()
         for _ in range(LOCK_REPEATS):  # a lost frame must not leave a joint free
-            if self._exchange(self.reply_timeout or 0.01):
+            if self._exchange(self.exchange_timeout) and self.decoder.status & proto.ACTIONS_MASK == LOCKED:
                 return
+        raise HardwareError(f"{self.name}: the board on {self.url} did not report both joints locked after "
+                            f"{LOCK_REPEATS} lock commands (its watchdog locks them when our commands stop)")
 
     def _on_close(self) -> None:
         self._close_port()

@@ -7,7 +7,8 @@ Exit codes (documented for systemd units and scripts):
   3  safe stop after a fault (limit, watchdog, device error, overruns, e-stop, telemetry
      writer failure), or any run that ends with its fallback engaged and not cleared by
      ``reset``; ``move``/``reset`` refused by the daemon
-  4  hardware could not be brought up (driver missing, link failed)
+  4  hardware could not be brought up (driver missing, link failed), or a device could
+     not confirm its drives off at the end
   5  ``--enforce-rt`` and a real-time knob could not be applied
   6  the control socket could not be reached (status/stop/estop/reset/move), or ``run``
      found its control socket or telemetry file held by another running daemon

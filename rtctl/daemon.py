@@ -141,6 +141,7 @@ class Daemon:
         finally:
             if compiling is not None:
                 compiling.abort()
+            self._deactivate_all()
             for dev in self.rt.all_devices:
                 dev.close()
             if server is not None:
@@ -285,10 +286,18 @@ class Daemon:
             if safety.deactivated or (stopping_since is not None and t - stopping_since > STOP_GRACE_S):
                 if self.stop_reason is None and not self.estopped:
                     self._fault("safety stop: " + "; ".join(f.reason for f in safety.faults[-3:]))
-                for dev in self.rt.all_devices:
-                    dev.deactivate()
+                self._deactivate_all()
                 if self.stop_reason is not None:
                     break
+
+    def _deactivate_all(self) -> None:
+        """Every device's actuators off. One that cannot confirm it is a hardware error: what
+        stops its drives then is their own watchdog, and the operator must know."""
+        for dev in self.rt.all_devices:
+            if not dev.deactivate():
+                log.error("drives not confirmed off", device=dev.name, reason=dev.last_error)
+                if self.exit_code == EXIT_OK:
+                    self.exit_code = EXIT_HARDWARE
 
     def _telemetry_failed(self, reason: str) -> None:
         """The writer cannot write (a full disk): say so now, stop recording, and apply the

@@ -33,6 +33,7 @@ SENSOR, COMMAND = 0x53, 0x43  # 'S', 'C'
 CHANNELS = ("hip", "knee", "ankle", "toe", "heel")
 SCALE = 1e-3  # one count = 1 mrad or 1 ‰ of the body weight
 WATCHDOG = 0x10
+ACTIONS_MASK = 0x0F  # the status bits that echo the actions applied
 HOLD, DECREASE, INCREASE, RELEASE = 0, 1, 2, 3
 ACTION_NAMES = ("hold", "decrease", "increase", "release")
 

@@ -128,12 +128,14 @@ class HilSimProcess:
         self.env = json.loads(line)["env"]
 
     def stop(self) -> dict:
+        """Its exit report, with ``motor_events``: every motor on/off it reported."""
         self.proc.send_signal(signal.SIGTERM)
         out, err = self.proc.communicate(timeout=60)
-        exits = [e for e in map(json.loads, filter(str.strip, out.splitlines())) if e.get("event") == "exit"]
+        events = [e for e in map(json.loads, filter(str.strip, out.splitlines()))]
+        exits = [e for e in events if e.get("event") == "exit"]
         if not exits:
             raise RuntimeError(f"hil-sim gave no exit report: {err[-2000:]}")
-        return exits[-1]
+        return dict(exits[-1], motor_events=[e for e in events if e.get("event") in ("motor_on", "motor_off")])
 
 
 def bench_soak(config=None, minutes: float = 10.0) -> dict:
@@ -172,6 +174,9 @@ def bench_soak(config=None, minutes: float = 10.0) -> dict:
         "dropped_rows": summary.get("telemetry", {}).get("dropped_rows"),
         "per_minute": soak["minutes"],
         "drives": len(sim_exit["drives"]), "drives_enabled": sum(d["enabled"] for d in sim_exit["drives"]),
+        "drives_left_enabled": [d for d in sim_exit["drives"] if d["enabled"]],
+        "motor_events": sim_exit["motor_events"], "device_errors": {
+            name: d.get("last_error") for name, d in summary["devices"].items()},
         "tracking_max_rad": summary["tracking_error_rad"]["max_all"], "goals": GOALS,
     }
 
@@ -197,7 +202,9 @@ def format_table(r: dict) -> str:
              f"{'on' if r['gc_enabled_in_loop'] else 'off (gc_freeze)'}, tracked objects left {r['gc_tracked_objects_left']:+d}",
              f"  telemetry rows {r['telemetry_rows']} vs ticks {r['ticks']} {ok('rows_equal_ticks')} "
              f"(dropped {r['dropped_rows']})",
-             f"  drives enabled at the end: {r['drives_enabled']} of {r['drives']} {ok('drives_disabled')}",
+             f"  drives enabled at the end: {r['drives_enabled']} of {r['drives']} {ok('drives_disabled')}"
+             + "".join(f"; {d['bus']}/{d['drive']:#x}" for d in r["drives_left_enabled"]),
+             *(f"  {name}: {error}" for name, error in r["device_errors"].items() if error),
              f"  tracking max {r['tracking_max_rad'] * 1e3:.1f} mrad; overruns {r['overruns']} in {r['ticks']} ticks",
              f"  {'minute':>6} {'ticks':>7} {'overruns':>8} {'lateness p99 µs':>16} {'max µs':>10}"]
     for m in r["per_minute"]:

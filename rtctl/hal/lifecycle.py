@@ -53,14 +53,17 @@ class Hardware:
             self._on_activate()
             self.lifecycle = Lifecycle.ACTIVE
 
-    def deactivate(self) -> None:
-        """Stop accepting commands and leave the actuators safe (motors off). Never raises."""
+    def deactivate(self) -> bool:
+        """Stop accepting commands and leave the actuators safe (motors off). Never raises:
+        False when the device could not confirm it (``last_error`` says why)."""
         if self.lifecycle is Lifecycle.ACTIVE:
             self.lifecycle = Lifecycle.INACTIVE
             try:
                 self._on_deactivate()
             except Exception as e:  # a deactivation must not stop the others
                 self.last_error = f"deactivate: {e}"
+                return False
+        return True
 
     def close(self) -> None:
         """Deactivate if needed and release the link. Never raises."""

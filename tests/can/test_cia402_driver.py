@@ -196,6 +196,29 @@ def test_deactivate_leaves_every_drive_disabled_even_after_the_bus_was_lost(rig)
     assert all(d.nmt_state == "PRE-OPERATIONAL" for d in r.drive_list)
 
 
+def test_a_drive_late_at_deactivate_is_awaited_and_one_never_seen_off_is_an_error(slow_rig):
+    r = slow_rig()
+    r.activate()
+    r.tick()
+    r.hold = True
+    r.tick()
+    r.read(r.now)  # this cycle's TPDOs are late: both drives count stale …
+    r.hold = False
+    r.deactivate()  # … yet they answer now, and are awaited until they report disabled
+    assert all(d.state == c.SWITCH_ON_DISABLED for d in r.drive_list) and r.last_error is None
+    r.activate()
+    r.tick()
+    r.hold = True
+    r.tick()
+    r.read(r.now)
+    r.drive_list[1].faults.silent = True  # late, then nothing more reaches it: it stays enabled
+    r.hold = False
+    r.deactivate()
+    assert r.drive_list[1].state == c.OPERATION_ENABLED and r.drive_list[0].state == c.SWITCH_ON_DISABLED
+    assert r.last_error.startswith("deactivate") and "0x2 (no TPDO)" in r.last_error
+    assert "0x1" not in r.last_error.split("did not")[0] and "silent before" in r.last_error
+
+
 def test_corrupted_tpdos_are_counted_and_ignored(rig):
     r = rig()
     r.activate()

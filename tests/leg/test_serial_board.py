@@ -57,6 +57,17 @@ def test_a_silent_board_leaves_the_joints_stale(board_on_pty):
     assert board.read(0.0) == Status.OK and not board.state.fresh.any()  # the safety stage counts these
 
 
+def test_deactivate_fails_when_the_board_never_reports_the_joints_locked(board_on_pty):
+    board, server, plant, events = board_on_pty
+    board.configure()
+    board.activate()
+    board.exchange_timeout = 0.05
+    server.silent = True  # it hears the lock commands and applies them, but says nothing
+    sent = board.counters["commands"]
+    assert board.deactivate() is False
+    assert board.counters["commands"] - sent == 3 and "did not report both joints locked" in board.last_error
+
+
 def test_loop_url_hears_only_its_own_commands():
     board = SerialLegBoard("board", ["hip", "knee", "ankle"], "loop://", PERIOD, exchange_timeout=0.05)
     with pytest.raises(HardwareError, match="no sensor frame"):

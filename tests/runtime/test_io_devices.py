@@ -15,7 +15,7 @@ from rtctl import runtime as runtime_mod
 from rtctl.config import load_config
 from rtctl.control import Controller
 from rtctl.daemon import Daemon
-from rtctl.errors import ConfigError
+from rtctl.errors import ConfigError, HardwareError
 from rtctl.hal import Hardware, Status
 from rtctl.runtime import build
 from runtime_helpers import BASE
@@ -26,18 +26,19 @@ class Counter(Hardware):
 
     instances: list = []
 
-    def __init__(self, name, fail_from=None):
+    def __init__(self, name, fail_from=None, deactivate_fails=False):
         super().__init__(name)
         self.reads = self.writes = 0
-        self.fail_from = fail_from
+        self.fail_from, self.deactivate_fails = fail_from, deactivate_fails
         self.calls: list[str] = []
         Counter.instances.append(self)
 
     @classmethod
     def from_config(cls, device, context):
         fail_from = device.options.int("fail_from", -1)
+        deactivate_fails = device.options.bool("deactivate_fails", False)
         device.options.done()
-        return cls(device.name, None if fail_from < 0 else fail_from)
+        return cls(device.name, None if fail_from < 0 else fail_from, deactivate_fails)
 
     def _on_configure(self):
         self.calls.append("configure")
@@ -47,6 +48,8 @@ class Counter(Hardware):
 
     def _on_deactivate(self):
         self.calls.append("deactivate")
+        if self.deactivate_fails:
+            raise HardwareError("eye: no answer to disable")
 
     def _on_close(self):
         self.calls.append("close")
@@ -186,3 +189,16 @@ def test_a_failing_io_device_takes_its_controller_out_and_engages_the_fallback_t
     assert watch.updates == 1 + 20
     assert eye.calls[-2:] == ["deactivate", "close"]
     assert np.isfinite(d.rt.state.position).all()
+
+
+def test_a_device_that_cannot_confirm_its_actuators_off_is_a_hardware_error_of_the_run(
+        registry, write_config, tmp_path):
+    from structlog.testing import capture_logs
+
+    with capture_logs() as logs:
+        d, code = run_daemon(config(write_config, "deactivate_fails = true"), tmp_path, 0.05)
+    assert code == 4 and d.stop_reason == "duration reached"  # a normal end, but not a clean one
+    assert d.rt.io["eye"].calls == ["configure", "activate", "deactivate", "close"]  # deactivated once
+    (error,) = [e for e in logs if e["event"] == "drives not confirmed off"]
+    assert error["log_level"] == "error" and error["device"] == "eye" and "no answer to disable" in error["reason"]
+    assert d.summary["exit_code"] == 4 and "no answer to disable" in d.summary["devices"]["eye"]["last_error"]
