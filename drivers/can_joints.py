@@ -318,8 +318,6 @@ class MitCanJointGroup(CanJointGroup):
         if self.bus is None:
             raise HardwareError(f"{self.name}: {what}: the bus is not open")
         try:
-            while (msg := self.bus.recv(0.0)) is not None:  # the late replies that came already
-                self._take(msg)
             for m in self._specials[kind]:
                 self.bus.send(m)
             self._sent_to_all()
