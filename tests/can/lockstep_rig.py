@@ -17,6 +17,17 @@ def virtual_bus() -> BusOptions:
                       ("virtual", channel, None, None), channel)
 
 
+class SlowWire:
+    """Mixed in before :class:`LockStep`: drives behind a wire with latency — while ``hold``,
+    they answer when the test pumps them."""
+
+    hold = False
+
+    def _after_send(self):
+        if not self.hold:
+            super()._after_send()
+
+
 class LockStep:
     """Mixed in before the driver class; the subclass calls :meth:`_attach` after the driver's __init__."""
 

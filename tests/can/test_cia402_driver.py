@@ -11,7 +11,7 @@ from drivers.protocols import cia402 as c
 from drivers.protocols.cia402_layout import Cia402Joint
 from hil_sim.cia402_drive import Cia402Drive, Cia402DriveBus
 from hil_sim.mit_drive import pump
-from lockstep_rig import LockStep, rigs, silence_second_drive, virtual_bus
+from lockstep_rig import LockStep, SlowWire, rigs, silence_second_drive, virtual_bus
 from rtctl.errors import HardwareError
 from rtctl.hal import CommandMode, Status
 
@@ -33,14 +33,8 @@ class Rig(LockStep, Cia402JointGroup):
         self.drives.service(self.now, [])
 
 
-class SlowWire(Rig):
-    """Drives behind a wire with latency: while ``hold``, they answer when the test pumps them."""
-
-    hold = False
-
-    def _after_send(self):
-        if not self.hold:
-            super()._after_send()
+class SlowRig(SlowWire, Rig):
+    pass
 
 
 @pytest.fixture
@@ -50,7 +44,7 @@ def rig():
 
 @pytest.fixture
 def slow_rig():
-    yield from rigs(SlowWire)
+    yield from rigs(SlowRig)
 
 
 def test_configure_writes_the_settings_and_reads_the_state_without_enabling(rig):

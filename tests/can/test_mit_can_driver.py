@@ -11,7 +11,7 @@ from drivers.can_joints import MitCanJointGroup
 from drivers.protocols.mit import DRIVE_MODELS, KATZ
 from drivers.protocols.mit_layout import MitJoint
 from hil_sim.mit_drive import MitDrive, MitDriveBus, pump
-from lockstep_rig import LockStep, rigs, silence_second_drive, virtual_bus
+from lockstep_rig import LockStep, SlowWire, rigs, silence_second_drive, virtual_bus
 from rtctl.errors import HardwareError
 from rtctl.hal import CommandMode, Status
 
@@ -249,50 +249,44 @@ def test_exit_motor_mode_is_sent_three_times_before_deactivate_gives_up(rig):
     assert "0x2" in r.last_error and "exit motor mode" in r.last_error
 
 
-class HeldRig(Rig):
-    """Its drives answer when the test pumps them while ``held``: their replies can be late."""
-
-    held = False
-
-    def _after_send(self):
-        if not self.held:
-            super()._after_send()
+class SlowRig(SlowWire, Rig):
+    pass
 
 
 @pytest.fixture
-def held_rig():
-    yield from rigs(lambda: HeldRig([MitJoint("a", 1, KATZ), MitJoint("b", 2, KATZ)]))
+def slow_rig():
+    yield from rigs(lambda: SlowRig([MitJoint("a", 1, KATZ), MitJoint("b", 2, KATZ)]))
 
 
-def test_a_late_reply_to_a_command_is_not_the_answer_to_exit_motor_mode(held_rig):
-    r = held_rig()
+def test_a_late_reply_to_a_command_is_not_the_answer_to_exit_motor_mode(slow_rig):
+    r = slow_rig()
     r.activate()
     r.tick()
-    r.held = True
+    r.hold = True
     r.tick()  # this command's replies miss the tick …
     pump(r.drives, r.peer, now=r.now)  # … and are on their way when deactivate begins
     for d in r.drive_list:
         d.faults.silent = True  # nothing more reaches the drives: exit motor mode is lost
-    r.held = False
+    r.hold = False
     r.deactivate()
     assert all(d.enabled for d in r.drive_list)
     assert "did not answer exit motor mode" in r.last_error and "0x1, 0x2" in r.last_error
 
 
-def test_exit_motor_mode_is_confirmed_by_the_answer_after_the_late_ones(held_rig):
-    r = held_rig()
+def test_exit_motor_mode_is_confirmed_by_the_answer_after_the_late_ones(slow_rig):
+    r = slow_rig()
     r.activate()
     r.tick()
-    r.held = True
+    r.hold = True
     r.tick()  # unanswered: the drives answer it first, then exit motor mode
-    r.held = False
+    r.hold = False
     r.deactivate()
     assert not any(d.enabled for d in r.drive_list) and r.last_error is None
     assert [d.counters.specials for d in r.drive_list] == [3, 3]  # exit, enter, exit: once each
 
 
-def test_a_reply_lost_once_costs_one_more_exit_not_a_failed_one(held_rig):
-    r = held_rig()
+def test_a_reply_lost_once_costs_one_more_exit_not_a_failed_one(slow_rig):
+    r = slow_rig()
     r.activate()
     r.drive_list[1].faults.drop_rate = 1.0
     r.tick()  # drive 2's reply is lost for good
