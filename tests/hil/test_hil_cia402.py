@@ -76,14 +76,15 @@ def test_a_silent_drive_is_a_safe_stop_within_3_ticks(tmp_path, hil_sim):
     assert code == 3, err[-3000:]
     check_complete(summary, telemetry, sim_exit)
     assert summary["stop_reason"] != "overrun limit reached", summary["stop_reason"]
-    stale = [e for e in summary["devices"]["arm"]["events"] if e["event"] == "stale"][0]
     faults = summary["safety"]["faults"]
     first = faults[0]
     at_first = {(f["kind"], f["joint"]) for f in faults if f["tick"] == first["tick"]}
     with unless_stalled(summary):  # a stall can make another drive stale first (seen in CI), or
-        # stop the run before the scripted silence at command set 500 (node 3 then disabled by command)
-        assert [(e["kind"], e["drive"]) for e in sim.of("fault")] == [("silent", 3)], sim.events
+        # stop the run before the scripted silence at command set 500 (node 3 then disabled by command;
+        # seen in a 10x loop: the wrist's TPDOs 3 ticks late at tick 68, with 27 overruns in 293 ticks)
+        assert [(e["kind"], e["drive"]) for e in sim.of("fault")] == [("silent", 3)], (faults[:4], sim.events)
         assert {("device_error", 0), ("stale", 2)} <= at_first, faults  # the elbow: node 3
+    stale = [e for e in summary["devices"]["arm"]["events"] if e["event"] == "stale"][0]
     after = np.count_nonzero((telemetry["t"] > stale["missing_since"]) & (telemetry["t"] <= first["t"]))
     print(f"silent CiA 402 drive: fallback {after} ticks after its first missing TPDOs")
     assert after == 3, (first, stale)
