@@ -20,6 +20,12 @@ from rtctl.control_socket import request  # noqa: E402
 from rtctl.telemetry import read  # noqa: E402
 
 CONFIGS = ROOT / "configs"
+# This shared 2-core VM stalls a process now and then, even at SCHED_FIFO (the host takes the
+# CPU: ~90 ms of steal time in 10 s measured; hil-sim then sends nothing for 5–20 ms). A run
+# whose test is about something else gives the drives (and the driver's gap check) a 250 ms
+# watchdog (hil-sim's MIT drives take their device's) and the stale-data checks 50 ticks, as the soak does, so that such a stall is not a
+# fault; the 20 ms watchdog and the shipped 3-tick stale limit are exercised by the fault tests.
+STALL_TOLERANT = {"drive_timeout": 0.25, "stale_limit": 50, "stale_ticks": 50}
 
 
 class HilSim:

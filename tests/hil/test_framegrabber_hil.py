@@ -107,11 +107,11 @@ def test_marker_observed_in_a_run_against_hil_sim(hil_sim, tmp_path):
     the joints up to a time shift ``lag`` (the loop's joint measurements against the plant),
     within 1 px RMS once that shift is taken out. The shift is printed: a field or less here
     (measured 13-18 ms on the shared test machine; see the note in docs/framegrabber.md)."""
-    from hil_helpers import run, unless_stalled, variant
+    from hil_helpers import STALL_TOLERANT, run, unless_stalled, variant
 
-    config = variant(tmp_path, "puma560_hil_socketcand.toml", drive_timeout=0.1, stale_limit=10, stale_ticks=10)
+    config = variant(tmp_path, "puma560_hil_socketcand.toml", **STALL_TOLERANT)
     config.write_text(config.read_text().replace("[safety]", CAMERA_AND_OBSERVER + "\n[safety]"))
-    sim = hil_sim(config, "--port", 0, "--drive-timeout-ms", 100)
+    sim = hil_sim(config, "--port", 0)
     code, summary, tel, err = run(config, tmp_path, sim.env(), duration=3.0)
     sim.stop()
     camera = summary["devices"]["camera"]

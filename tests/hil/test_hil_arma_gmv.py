@@ -4,15 +4,14 @@ start pose, the paper's move, the hold. Measured on this VM: see the printed lin
 import numpy as np
 import pytest
 
-from hil_helpers import run, variant
+from hil_helpers import STALL_TOLERANT, run, variant
 
 pytestmark = pytest.mark.hil
 
 
 def test_arma_gmv_runs_the_paper_move_over_socketcand(tmp_path, hil_sim):
-    config = variant(tmp_path, "puma3_arma_gmv_hil_socketcand.toml", drive_timeout=0.1, stale_limit=10,
-                     stale_ticks=10)
-    sim = hil_sim(config, "--port", 0, "--drive-timeout-ms", 100)
+    config = variant(tmp_path, "puma3_arma_gmv_hil_socketcand.toml", **STALL_TOLERANT)
+    sim = hil_sim(config, "--port", 0)
     code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=5.5)
     sim_exit = sim.stop()
     assert code == 0, (summary["stop_reason"], summary["safety"]["faults"][:3])
@@ -20,14 +19,16 @@ def test_arma_gmv_runs_the_paper_move_over_socketcand(tmp_path, hil_sim):
     assert not any(d["enabled"] for d in sim_exit["drives"])
     tracking = summary["tracking_error_rad"]
     q_end, goal = telemetry["q"][-1], np.radians([135.0, 90.0, -45.0])
-    print(f"ARMA/GMV over socketcand: max {np.degrees(tracking['max_all']):.2f}°, "
+    t = telemetry["t"]
+    hold = np.median(telemetry["q"][t > t[-1] - 1.5], axis=0)  # the hold's last 1.5 s (the move ends at 3 s)
+    print(f"ARMA/GMV over socketcand: hold {np.degrees(hold - goal).round(3)}°, max {np.degrees(tracking['max_all']):.2f}°, "
           f"rms {np.degrees(tracking['rms_all']):.3f}°, final error {np.degrees(q_end - goal).round(3)}°, "
           f"overruns {summary['timing']['overruns']}")
     for name in ("a_hat", "b_hat", "r_hat", "u"):
         assert np.all(np.isfinite(telemetry[name]))
-    # it got there and held: the median of the last 0.5 s (250 ticks). On this VM every run overruns
-    # 20–210 times (ms-late wake-ups at 500 Hz) and the 50 Hz controller then rings for a while —
-    # the last sample was up to 3.2° off in 2 of 12 runs (2026-12-01) — while the hold's median was
-    # within 0.23° in all 12: the bound is 3× that
-    hold = np.median(telemetry["q"][-250:], axis=0)
-    assert np.all(np.abs(np.degrees(hold - goal)) < 0.7), np.degrees(hold - goal)
+    # it got there and held: the median of the last 1.5 s of the hold. The 50 Hz controller rings
+    # around the goal (up to 5° peak to peak) in some runs, more often after bursts of overruns
+    # (1–210 per run on this VM): over the last 0.5 s the median was off by up to 2.2° (more than
+    # 0.7° in 1 of 20 runs measured on 2026-12-02, 4 of ~40 that day), over 1.5 s by at most 0.20°
+    # in the same 20 runs: the bound is 3× that
+    assert np.all(np.abs(np.degrees(hold - goal)) < 0.6), np.degrees(hold - goal)

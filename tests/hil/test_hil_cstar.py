@@ -14,15 +14,14 @@ does not need one and fails at once."""
 import numpy as np
 import pytest
 
-from hil_helpers import run, unless_stalled, variant
+from hil_helpers import STALL_TOLERANT, run, unless_stalled, variant
 
 pytestmark = pytest.mark.hil
 
 
 def test_cstar_from_zero_estimates_tracks_over_socketcand(tmp_path, hil_sim):
-    config = variant(tmp_path, "puma560_cstar_hil_socketcand.toml", drive_timeout=0.1, stale_limit=10,
-                     stale_ticks=10)
-    sim = hil_sim(config, "--port", 0, "--drive-timeout-ms", 100)
+    config = variant(tmp_path, "puma560_cstar_hil_socketcand.toml", **STALL_TOLERANT)
+    sim = hil_sim(config, "--port", 0)
     code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=5.0)
     sim_exit = sim.stop()
     assert telemetry.rows == summary["timing"]["ticks"]

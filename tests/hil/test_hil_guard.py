@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from hil_helpers import ROOT, variant
+from hil_helpers import ROOT, STALL_TOLERANT, variant
 
 sys.path.insert(0, str(ROOT / "tests" / "guard"))
 from guard_helpers import PUMA, depths, guard_events, guard_section, rtctl_run, travel_after  # noqa: E402
@@ -15,7 +15,6 @@ from rtctl.model import load_robot  # noqa: E402
 
 pytestmark = pytest.mark.hil
 
-TOLERANT = {"drive_timeout": 0.1, "stale_limit": 10, "stale_ticks": 10}  # see test_hil_tracking
 INTO_CONVEYOR = [0.0, 1.0472, -0.6981, 0.0, 0.0, 0.0]  # from q = 0: shoulder 60°, elbow −40°, inside the zone
 PAST_WRIST_LIMIT = [0.0, 0.0, 0.0, 0.0, 2.6, 0.0]  # wrist bend 149° (limit 100°)
 
@@ -23,12 +22,12 @@ PAST_WRIST_LIMIT = [0.0, 0.0, 0.0, 0.0, 2.6, 0.0]  # wrist bend 149° (limit 100
 @pytest.mark.parametrize("target, zone", [(INTO_CONVEYOR, "overhead_conveyor"),
                                           (PAST_WRIST_LIMIT, "wrist_bend upper limit")])
 def test_a_step_into_a_zone_or_past_a_limit_over_socketcand_is_stopped_short(tmp_path, hil_sim, target, zone):
-    config = variant(tmp_path, "puma560_hil_socketcand.toml", **TOLERANT)
+    config = variant(tmp_path, "puma560_hil_socketcand.toml", **STALL_TOLERANT)
     text = config.read_text().replace('type = "computed_torque"', 'type = "step_into"')
     text = text.replace("kd = 40.0", f"kd = 40.0\ntarget = {target}\nat = 0.2", 1)
     text = text[:text.index("[trajectory]")] + text[text.index("[safety]"):]  # it holds q = 0 until the step
     config.write_text(text + guard_section("stop"))
-    sim = hil_sim(config, "--port", 0, "--drive-timeout-ms", 100)
+    sim = hil_sim(config, "--port", 0)
     code, summary, telemetry, err = rtctl_run(config, tmp_path, "--duration", 2.0, env=sim.env())
     sim_exit = sim.stop()
     assert code == 3, err[-3000:]

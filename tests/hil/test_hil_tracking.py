@@ -10,15 +10,10 @@ periods) and is retried as a stall. Over slcan (250 Hz) all 20 stayed within 31.
 import numpy as np
 import pytest
 
-from hil_helpers import run, unless_stalled, variant
+from hil_helpers import STALL_TOLERANT, run, unless_stalled, variant
 
 pytestmark = pytest.mark.hil
 
-# This shared 2-core VM stalls a process for 5–20 ms now and then (even at SCHED_FIFO): the
-# nominal runs give the drives (and the driver's gap check) a 100 ms watchdog and the stale-data
-# checks 10 ticks, so that such a stall is not a fault. The 20 ms watchdog and the 3-tick stale
-# limit themselves are exercised in test_hil_faults.
-TOLERANT = {"drive_timeout": 0.1, "stale_limit": 10, "stale_ticks": 10}
 SOCKETCAND_MAX, SOCKETCAND_RMS = 3 * 0.0052, 3 * 0.0010  # rad: 3× the worst quiet run
 SLCAN_MAX, SLCAN_RMS = 3 * 0.0315, 3 * 0.0068
 
@@ -30,8 +25,8 @@ def check_complete(summary, telemetry, sim_exit):
 
 
 def test_puma560_over_socketcand_tracks_its_trajectory(tmp_path, hil_sim):
-    config = variant(tmp_path, "puma560_hil_socketcand.toml", **TOLERANT)
-    sim = hil_sim(config, "--port", 0, "--drive-timeout-ms", 100)
+    config = variant(tmp_path, "puma560_hil_socketcand.toml", **STALL_TOLERANT)
+    sim = hil_sim(config, "--port", 0)
     assert sim.info["transport"] == "socketcand" and sim.info["channels"] == ["can0"]
     code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=4.0)
     sim_exit = sim.stop()
@@ -53,8 +48,8 @@ def test_puma560_over_socketcand_tracks_its_trajectory(tmp_path, hil_sim):
 
 
 def test_three_joints_over_slcan_track_their_trajectory(tmp_path, hil_sim):
-    config = variant(tmp_path, "three_joint_slcan.toml", **TOLERANT)
-    sim = hil_sim(config, "--drive-timeout-ms", 100)
+    config = variant(tmp_path, "three_joint_slcan.toml", **STALL_TOLERANT)
+    sim = hil_sim(config)
     assert sim.info["transport"] == "slcan" and sim.info["env"]["HIL_SIM_TTY"] == sim.info["tty"]
     code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=4.0)
     sim_exit = sim.stop()
