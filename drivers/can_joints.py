@@ -93,9 +93,11 @@ class MitCanJointGroup(CanJointGroup):
             self._replies[:, c] for c in (REPLY_POSITION, REPLY_VELOCITY, REPLY_EFFORT, REPLY_ERROR))
         self._got = np.zeros(n, dtype=bool)  # a reply since the last read
         self._cycle = np.zeros(n, dtype=bool)  # a reply in the current collection
-        # frames each drive has not answered yet: a drive answers in order, so its answer to a
-        # frame just sent is the last reply it owes — not a late one to an earlier command
-        self._owed = [0] * n
+        # every frame goes to every drive, and a drive answers in order: a drive owes the frames
+        # sent minus its replies (``_replied``), and its answer to a frame just sent is the last
+        # reply it owes — not a late one to an earlier command
+        self._sent = 0
+        self._replied = [0] * n
         self._tmp = np.zeros(n)
         self._p, self._v, self._tau, self._zero = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
 
@@ -244,7 +246,7 @@ class MitCanJointGroup(CanJointGroup):
             bus = self.bus
             for m in messages:
                 bus.send(m)
-            self._sent_to_all()
+            self._sent += 1
             self._last_sent = self._clock()
             self._after_send()
             missing = self._collect(self.reply_timeout)
@@ -261,20 +263,15 @@ class MitCanJointGroup(CanJointGroup):
     def _take_answer(self, msg) -> int:
         """1 when ``msg`` is the last reply a drive owed (its answer to the frame just sent), else 0."""
         row = self._take(msg)
-        if row >= 0 and self._owed[row] == 0 and not self._cycle[row]:
+        if row >= 0 and self._replied[row] == self._sent and not self._cycle[row]:
             self._cycle[row] = True
             return 1
         return 0
 
-    def _sent_to_all(self) -> None:
-        owed = self._owed
-        for row in range(len(owed)):
-            owed[row] += 1
-
     def _forget_owed(self) -> None:
-        owed = self._owed
-        for row in range(len(owed)):
-            owed[row] = 0
+        replied = self._replied
+        for row in range(len(replied)):
+            replied[row] = self._sent
 
     def _take_reply(self, msg) -> int:
         """1 when ``msg`` is the first reply of a drive in this collection, else 0."""
@@ -299,15 +296,15 @@ class MitCanJointGroup(CanJointGroup):
             return -1
         mit.unpack_reply_into(data, self._models[row], self._replies, row)
         self._got[row] = True
-        if self._owed[row]:
-            self._owed[row] -= 1
+        if self._replied[row] < self._sent:  # (a reply owed nothing credits no later frame)
+            self._replied[row] += 1
         return row
 
     def _send_special(self, kind: Special) -> None:
         try:
             for m in self._specials[kind]:
                 self.bus.send(m)
-            self._sent_to_all()
+            self._sent += 1
             self._after_send()
         except Exception as e:
             self.last_error = f"{kind.name.lower()}: {type(e).__name__}: {e}"
@@ -320,7 +317,7 @@ class MitCanJointGroup(CanJointGroup):
         try:
             for m in self._specials[kind]:
                 self.bus.send(m)
-            self._sent_to_all()
+            self._sent += 1
             self._after_send()
             self._cycle.fill(False)
             self._receive(len(self._cycle), self.exchange_timeout, self._take_answer)

@@ -131,7 +131,7 @@ class HilSimProcess:
         """Its exit report, with ``motor_events``: every motor on/off it reported."""
         self.proc.send_signal(signal.SIGTERM)
         out, err = self.proc.communicate(timeout=60)
-        events = [e for e in map(json.loads, filter(str.strip, out.splitlines()))]
+        events = list(map(json.loads, filter(str.strip, out.splitlines())))
         exits = [e for e in events if e.get("event") == "exit"]
         if not exits:
             raise RuntimeError(f"hil-sim gave no exit report: {err[-2000:]}")
