@@ -47,8 +47,8 @@ class CanJointGroup(JointGroup):
         self._drives_off: str | None = None  # why the drives must be assumed off (their watchdog)
         self._lost_at: float | None = None  # monotonic time the bus was lost
         self._next_attempt = 0.0
-        self.counters = {"cycles": 0, "missing_replies": 0, "malformed_replies": 0, "foreign_frames": 0,
-                         "error_frames": 0, "bus_errors": 0, "reconnects": 0}
+        self.counters = {"cycles": 0, "missing_replies": 0, "late_replies": 0, "malformed_replies": 0,
+                         "foreign_frames": 0, "error_frames": 0, "bus_errors": 0, "reconnects": 0}
         self.events: list[dict] = []  # rare: bus lost / back, drives assumed off, fault states
         self._last_event: str | None = None  # so a fault state is reported once, not every tick
 

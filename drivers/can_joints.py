@@ -30,8 +30,13 @@ the replies until every drive answered or ``reply_deadline × period`` passed, b
 the controllers see is the drives' measurement taken when tick k's commands arrived — one
 period old, inherent to a protocol that replies to commands, and the same whichever call
 collects; collecting in ``write()`` bounds the wait inside the tick, notices a silent drive in
-the tick it fell silent and lets the loop sleep undisturbed. A reply after the deadline is
-picked up by the next collection (the newest reply wins). Torque mode sends kp = kd = 0, t = τ.
+the tick it fell silent and lets the loop sleep undisturbed. Before sending, ``write()`` takes
+the replies that missed their deadline (already in the receive buffer; their values are the
+newest, published, but their joints are not fresh) and from then on expects only the answers to
+the frames it sends. Otherwise a late reply would arrive first in the next collection and, taken
+as that tick's answer, end the wait before the real one, which then missed its tick in turn:
+each stall would leave the measurement one more period old, unnoticed. Torque mode sends
+kp = kd = 0, t = τ.
 
 Hot path: the command messages and all arrays are preallocated; the codec packs into the
 messages' own ``data``. python-can still allocates a Message per received frame, and its
@@ -92,7 +97,7 @@ class MitCanJointGroup(CanJointGroup):
         self._reply_position, self._reply_velocity, self._reply_effort, self._reply_error = (
             self._replies[:, c] for c in (REPLY_POSITION, REPLY_VELOCITY, REPLY_EFFORT, REPLY_ERROR))
         self._got = np.zeros(n, dtype=bool)  # a reply since the last read
-        self._cycle = np.zeros(n, dtype=bool)  # a reply in the current collection
+        self._cycle = np.zeros(n, dtype=bool)  # the answer to the last frame sent, in the current collection
         # every frame goes to every drive, and a drive answers in order: a drive owes the frames
         # sent minus its replies (``_replied``), and its answer to a frame just sent is the last
         # reply it owes — not a late one to an earlier command
@@ -204,11 +209,12 @@ class MitCanJointGroup(CanJointGroup):
         np.multiply(self._reply_effort, self._effort_scale, out=tmp)
         np.copyto(s.effort, tmp, where=got)
         np.copyto(s.fault, self._reply_error, where=got, casting="unsafe")
-        np.copyto(s.fresh, got)
+        np.copyto(s.fresh, self._cycle)  # a late reply's values are newer than ours but a period old
         stale += 1
-        np.copyto(stale, self._zeros_i, where=got)
+        np.copyto(stale, self._zeros_i, where=self._cycle)
         s.stamp = self._stamp
         got.fill(False)
+        self._cycle.fill(False)
         if self.bus is None:
             return Status.ERROR
         if self._drives_off is not None:
@@ -244,6 +250,9 @@ class MitCanJointGroup(CanJointGroup):
             mit.pack_command_into(messages[i].data, models[i], p[i], v[i], kp[i], kd[i], tau[i])
         try:
             bus = self.bus
+            self._receive(1, 0.0, self._take_late)
+            if min(self._replied) < self._sent:  # a reply later than a whole period is as good as lost
+                self._forget_owed()
             for m in messages:
                 bus.send(m)
             self._sent += 1
@@ -258,7 +267,7 @@ class MitCanJointGroup(CanJointGroup):
     def _collect(self, timeout: float) -> int:
         """Receive until every drive answered or ``timeout`` s passed; returns how many did not."""
         self._cycle.fill(False)
-        return self._receive(len(self._cycle), timeout, self._take_reply)
+        return self._receive(len(self._cycle), timeout, self._take_answer)
 
     def _take_answer(self, msg) -> int:
         """1 when ``msg`` is the last reply a drive owed (its answer to the frame just sent), else 0."""
@@ -268,18 +277,16 @@ class MitCanJointGroup(CanJointGroup):
             return 1
         return 0
 
+    def _take_late(self, msg) -> int:
+        """Decode a reply that missed its collection (its values are the newest); it answers nothing."""
+        if self._take(msg) >= 0:
+            self.counters["late_replies"] += 1
+        return 0
+
     def _forget_owed(self) -> None:
         replied = self._replied
         for row in range(len(replied)):
             replied[row] = self._sent
-
-    def _take_reply(self, msg) -> int:
-        """1 when ``msg`` is the first reply of a drive in this collection, else 0."""
-        row = self._take(msg)
-        if row >= 0 and not self._cycle[row]:
-            self._cycle[row] = True
-            return 1
-        return 0
 
     def _take(self, msg) -> int:
         """Decode one received frame into the reply table; its row, or −1 when ignored."""

@@ -89,7 +89,7 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         self.heartbeat_timeout = 3 * heartbeat_period if heartbeat_timeout is None else heartbeat_timeout
         self.max_torque = np.full(n, math.inf) if max_torque is None else np.asarray(max_torque, dtype=float)
         self.network: MasterNetwork | None = None
-        self.counters.update(late_replies=0, emcy=0, heartbeats=0)
+        self.counters.update(emcy=0, heartbeats=0)
         self._init_frames(self.joints, self.layout)
         self._dir = np.array([j.direction for j in joints])
         self._offset = np.array([j.offset for j in joints])

@@ -258,6 +258,29 @@ def slow_rig():
     yield from rigs(lambda: SlowRig([MitJoint("a", 1, KATZ), MitJoint("b", 2, KATZ)]))
 
 
+def test_a_late_reply_is_not_the_next_ticks_answer_so_the_measurement_stays_one_period_old(slow_rig):
+    """A reply that missed its tick is in the buffer when the next tick sends. Taken as that
+    tick's answer, it ended the wait before the real answer, which then missed its own tick: from
+    one stall on, every state was a period older than the driver says, and marked fresh (over
+    socketcand the ARMA/GMV loop identified that delay and rang)."""
+    r = slow_rig()
+    r.activate()
+    r.tick()
+    r.hold = True
+    r.tick()  # these replies miss their tick …
+    pump(r.drives, r.peer, now=r.now)  # … and are in the buffer when the next tick sends
+    r.hold = False
+    seen = []
+    for where in (0.3, 0.5, 0.7, 0.9):  # the joints' position when each tick's commands arrive
+        r.q[:] = where
+        assert r.tick() == (Status.OK, Status.OK)
+        seen.append((r.state.position.round(3).tolist(), r.state.fresh.tolist()))
+    # the first read has no answer to publish (the late replies came after its deadline); each
+    # later read publishes the answers to the previous tick's commands, fresh
+    assert seen == [([0.0, 0.0], [False, False])] + [([x, x], [True, True]) for x in (0.3, 0.5, 0.7)]
+    assert r.counters["missing_replies"] == 2 and r.counters["late_replies"] == 2  # the stalled tick's, once
+
+
 def test_a_late_reply_to_a_command_is_not_the_answer_to_exit_motor_mode(slow_rig):
     r = slow_rig()
     r.activate()
