@@ -45,6 +45,9 @@ class CanJointGroup(JointGroup):
         self._nans = np.full(n, np.nan)
         self._last_sent = -float("inf")  # clock time of the last command set sent
         self._drives_off: str | None = None  # why the drives must be assumed off (their watchdog)
+        # slcan acknowledges every frame sent with a line that python-can's recv() returns as None:
+        # a collection past its deadline reads that many more before an empty buffer (subclass)
+        self._acks_per_send = 0
         self._lost_at: float | None = None  # monotonic time the bus was lost
         self._next_attempt = 0.0
         self.counters = {"cycles": 0, "missing_replies": 0, "late_replies": 0, "malformed_replies": 0,
@@ -71,13 +74,6 @@ class CanJointGroup(JointGroup):
             self._event("drives_off", self._drives_off)
         return True
 
-    def _end_write(self, t: float, missing: int, answered) -> Status:
-        """The end of a ``write`` whose frames went out and whose replies came (or not): the
-        counters, :meth:`_answered`, the status."""
-        self.counters["cycles"] += 1
-        self._answered(t, missing, answered)
-        return Status.DEACTIVATE if self._drives_off is not None else Status.OK
-
     def _answered(self, t: float, missing: int, answered) -> None:
         """The replies to the commands of loop time ``t``: counters, since when each joint has
         been unanswered (``answered``: a mask), the state's stamp."""
@@ -87,10 +83,11 @@ class CanJointGroup(JointGroup):
         np.copyto(self._missing_since, self._nans, where=answered)
         self._stamp = t
 
-    def _receive(self, pending: int, timeout: float, take) -> int:
+    def _receive(self, pending: int, timeout: float, take, acks: int = 0) -> int:
         """Receive until ``take(msg)`` — how many of the awaited frames ``msg`` was — has counted
-        ``pending`` down to 0, or ``timeout`` s passed (blocking in ``recv``, not spinning);
-        returns how many are still missing."""
+        ``pending`` down to 0, or ``timeout`` s passed (blocking in ``recv``, not spinning) and
+        ``recv`` found nothing ``acks`` + 1 times (``acks``: slcan's acknowledgements, which read as
+        nothing); returns how many are still missing."""
         bus = self.bus
         end = time.monotonic() + timeout
         while pending:
@@ -98,8 +95,10 @@ class CanJointGroup(JointGroup):
             msg = bus.recv(remaining if remaining > 0.0 else 0.0)
             if msg is None:
                 if remaining <= 0.0:
-                    break
-                continue  # (slcan: a transmit acknowledgement reads as None)
+                    if not acks:
+                        break
+                    acks -= 1
+                continue  # (before the deadline: slcan's acknowledgement, or a spurious wake-up)
             pending -= take(msg)
         return pending
 

@@ -6,7 +6,7 @@ up devices that name the same bus). Options (the ``[[devices]]`` table; drive la
 
     protocol = "mit"          # for the bus-load budget: "mit" (6-byte replies), "mit8" (default when a reply is 8 bytes)
     bus_load_limit = 0.8      # refuse the configuration above it (exit 2)
-    reply_deadline = 0.6      # fraction of the period write() waits for the replies
+    reply_deadline = 0.6      # fraction of the period after write() by which the replies are due
     stale_limit = 3           # ticks in a row without a joint's reply → Status.ERROR
     drive_timeout = 0.02      # s: the drives' command watchdog; a longer gap in our commands → DEACTIVATE
     exchange_timeout = 0.5    # s for the answers to enter/exit motor mode and set-zero
@@ -24,19 +24,22 @@ reply a drive owes (the driver counts the frames each drive has not answered), n
 reply to an earlier command. A drive that does not answer makes ``deactivate`` fail (the
 daemon reports it and exits 4): its watchdog is then what turns it off.
 
-Per tick: the drives answer only commands, so ``write()`` sends all commands and then collects
-the replies until every drive answered or ``reply_deadline × period`` passed, blocking in
-``recv`` (not spinning); ``read()`` of the next tick publishes them and does no I/O. The state
-the controllers see is the drives' measurement taken when tick k's commands arrived — one
-period old, inherent to a protocol that replies to commands, and the same whichever call
-collects; collecting in ``write()`` bounds the wait inside the tick, notices a silent drive in
-the tick it fell silent and lets the loop sleep undisturbed. Before sending, ``write()`` takes
-the replies that missed their deadline (already in the receive buffer; their values are the
-newest, published, but their joints are not fresh) and from then on expects only the answers to
-the frames it sends. Otherwise a late reply would arrive first in the next collection and, taken
-as that tick's answer, end the wait before the real one, which then missed its tick in turn:
-each stall would leave the measurement one more period old, unnoticed. Torque mode sends
-kp = kd = 0, t = τ.
+Per tick: the drives answer only commands. ``write()`` sends all commands and returns;
+``read()`` of the next tick collects the answers — usually already there, a period later — and
+waits only for those still due (until ``reply_deadline × period`` after the send, blocking in
+``recv``, not spinning), then publishes them. The state the controllers see is the drives'
+measurement taken when tick k's commands arrived — one period old, inherent to a protocol that
+replies to commands, whichever call collects. Collecting in ``write()`` (until 2026-12-02)
+waited out the round trip inside the tick — 0.6 ms at the median for 6 drives over socketcand —
+and with the host's jitter up to 31 % of a 500 Hz loop's ticks overran (docs/can_joints.md; the
+CiA 402 driver made the same move, docs/cia402.md).
+
+A reply after its deadline is taken at the start of the next ``write()``, before the new frames
+go out (its values are the newest and are published, but its joint is not fresh), and the
+collection after it waits for each drive's answer to the frames just sent — the last reply it
+owes. Otherwise a late reply, first in the next collection, would be taken as that tick's answer
+and the real one would miss its tick in turn: each stall would leave the measurement one more
+period old, unnoticed. Torque mode sends kp = kd = 0, t = τ.
 
 Hot path: the command messages and all arrays are preallocated; the codec packs into the
 messages' own ``data``. python-can still allocates a Message per received frame, and its
@@ -50,6 +53,8 @@ own watchdogs have turned their motors off: the device reports DEACTIVATE (its o
 it is activated again.
 """
 from __future__ import annotations
+
+import time
 
 import can
 import numpy as np
@@ -101,6 +106,10 @@ class MitCanJointGroup(CanJointGroup):
         # every frame goes to every drive, and a drive answers in order: a drive owes the frames
         # sent minus its replies (``_replied``), and its answer to a frame just sent is the last
         # reply it owes — not a late one to an earlier command
+        if bus.kwargs["interface"] == "slcan":
+            self._acks_per_send = n
+        self._cycle_t: float | None = None  # loop time of the commands whose answers read() collects next
+        self._replies_by = 0.0  # time.monotonic() by which they are due
         self._sent = 0
         self._replied = [0] * n
         self._tmp = np.zeros(n)
@@ -200,6 +209,13 @@ class MitCanJointGroup(CanJointGroup):
     # -- per tick ------------------------------------------------------------------------
     def _read(self, t: float) -> Status:
         self._t_loop = t
+        if self._cycle_t is not None:  # the answers to the last tick's commands
+            cycle_t, self._cycle_t = self._cycle_t, None
+            if self.bus is not None:
+                try:
+                    self._answered(cycle_t, self._collect(max(0.0, self._replies_by - time.monotonic())), self._cycle)
+                except Exception as e:
+                    self._lost(e)
         got, s, tmp, stale = self._got, self.state, self._tmp, self._stale
         np.multiply(self._reply_position, self._dir, out=tmp)
         tmp += self._offset
@@ -250,24 +266,27 @@ class MitCanJointGroup(CanJointGroup):
             mit.pack_command_into(messages[i].data, models[i], p[i], v[i], kp[i], kd[i], tau[i])
         try:
             bus = self.bus
-            self._receive(1, 0.0, self._take_late)
-            if min(self._replied) < self._sent:  # a reply later than a whole period is as good as lost
-                self._forget_owed()
+            if min(self._replied) < self._sent:  # answers missing at the last read: late or lost
+                self._receive(1, 0.0, self._take_late)  # the late ones are here by now (no wait)
+                self._forget_owed()  # the rest are as good as lost
             for m in messages:
                 bus.send(m)
             self._sent += 1
             self._last_sent = self._clock()
+            self._replies_by = time.monotonic() + self.reply_timeout
             self._after_send()
-            missing = self._collect(self.reply_timeout)
         except Exception as e:
             return self._lost(e)
-        return self._end_write(t, missing, self._cycle)
+        self.counters["cycles"] += 1
+        self._cycle_t = t  # its answers are collected by the next read
+        return Status.DEACTIVATE if self._drives_off is not None else Status.OK
 
     # -- frames --------------------------------------------------------------------------
     def _collect(self, timeout: float) -> int:
-        """Receive until every drive answered or ``timeout`` s passed; returns how many did not."""
+        """Receive until every drive answered the last frames sent or ``timeout`` s passed;
+        returns how many did not."""
         self._cycle.fill(False)
-        return self._receive(len(self._cycle), timeout, self._take_answer)
+        return self._receive(len(self._cycle), timeout, self._take_answer, self._acks_per_send)
 
     def _take_answer(self, msg) -> int:
         """1 when ``msg`` is the last reply a drive owed (its answer to the frame just sent), else 0."""

@@ -9,4 +9,4 @@ def test_the_virtual_row_is_the_driver_answered_every_tick():
     assert row["lost"] == 0 and row["misses"] == 0  # lock-step: every reply is there before the deadline
     assert 0 < row["median_ms"] <= row["p99_ms"] <= row["max_ms"]
     table = format_table({"codec": bench_codec(frames=100), "cycles": [row], "goals": GOALS})
-    assert "MitCanJointGroup.write()" in table and "virtual (lock-step, in-process)" in table
+    assert "MitCanJointGroup.read() + write()" in table and "virtual (lock-step, in-process)" in table

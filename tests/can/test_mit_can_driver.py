@@ -110,6 +110,8 @@ def test_replies_are_awaited_for_the_reply_deadline_as_a_fraction_of_the_period(
         r.activate()
         r.delay = delay
         r.write(r.now)
+        assert r.counters["missing_replies"] == 0  # write() sends and returns: nothing awaited yet
+        r.read(r.now)  # collects the answers, waiting until their deadline
         assert r.counters["missing_replies"] == missing
     finally:
         time.sleep(0.35)  # the late reply's timer has fired
@@ -123,7 +125,7 @@ def test_a_missing_reply_is_stale_and_the_stale_limit_is_an_error(rig):
     r = rig()
     # the reply of the silencing tick's commands is missing at the next read: stale 1, 2, 3 → ERROR
     assert silence_second_drive(r) == [Status.OK, Status.OK, Status.OK, Status.ERROR]
-    assert r.counters["missing_replies"] == 4 and "drive(s) 0x2 " in r.last_error  # only the silent one
+    assert r.counters["missing_replies"] == 3 and "drive(s) 0x2 " in r.last_error  # only the silent one
     r.drive_list[1].faults.silent = False
     r.tick()
     assert r.tick()[0] == Status.OK and np.all(r.state.fresh)
@@ -178,8 +180,8 @@ def test_malformed_and_foreign_frames_are_counted_and_ignored(rig):
     r.peer.send(can.Message(arbitration_id=0x123, data=b"\x00" * 8, is_extended_id=False))  # another id
     r.peer.send(can.Message(arbitration_id=0, data=bytes([0x77, 0, 0, 0, 0, 0]), is_extended_id=False))  # unknown drive
     assert r.tick() == (Status.OK, Status.OK)
+    assert r.tick() == (Status.OK, Status.OK) and np.all(r.state.fresh)  # collected with the answers
     assert r.counters["malformed_replies"] == 2 and r.counters["foreign_frames"] == 1
-    assert r.tick() == (Status.OK, Status.OK) and np.all(r.state.fresh)
 
 
 def test_a_drive_error_code_is_reported_per_joint(rig):
@@ -259,25 +261,29 @@ def slow_rig():
 
 
 def test_a_late_reply_is_not_the_next_ticks_answer_so_the_measurement_stays_one_period_old(slow_rig):
-    """A reply that missed its tick is in the buffer when the next tick sends. Taken as that
-    tick's answer, it ended the wait before the real answer, which then missed its own tick: from
-    one stall on, every state was a period older than the driver says, and marked fresh (over
-    socketcand the ARMA/GMV loop identified that delay and rang)."""
+    """A reply that missed its deadline is in the buffer when the next collection starts. Taken
+    as that collection's answer, it ended the wait before the real answer, which then missed its
+    own tick: from one stall on, every state was a period older than the driver says, and marked
+    fresh (over socketcand the ARMA/GMV loop identified that delay and rang)."""
     r = slow_rig()
     r.activate()
     r.tick()
     r.hold = True
-    r.tick()  # these replies miss their tick …
-    pump(r.drives, r.peer, now=r.now)  # … and are in the buffer when the next tick sends
+    r.tick()  # these commands' answers are held back …
     r.hold = False
+    r.now += 0.001
+    assert r.read(r.now) == Status.OK and not r.state.fresh.any()  # … past this read's deadline
+    r.q[:] = 0.1
+    pump(r.drives, r.peer, now=r.now)  # … and arrive before this tick's write: late
+    r.q[:] = 0.3
+    r.write(r.now)
     seen = []
-    for where in (0.3, 0.5, 0.7, 0.9):  # the joints' position when each tick's commands arrive
+    for where in (0.5, 0.7, 0.9):  # the joints' position when each tick's commands arrive
         r.q[:] = where
         assert r.tick() == (Status.OK, Status.OK)
         seen.append((r.state.position.round(3).tolist(), r.state.fresh.tolist()))
-    # the first read has no answer to publish (the late replies came after its deadline); each
-    # later read publishes the answers to the previous tick's commands, fresh
-    assert seen == [([0.0, 0.0], [False, False])] + [([x, x], [True, True]) for x in (0.3, 0.5, 0.7)]
+    # each read publishes the answers to the previous tick's commands, fresh
+    assert seen == [([x, x], [True, True]) for x in (0.3, 0.5, 0.7)]
     assert r.counters["missing_replies"] == 2 and r.counters["late_replies"] == 2  # the stalled tick's, once
 
 
@@ -335,6 +341,7 @@ def test_error_frames_and_empty_frames_on_the_master_id_are_counted_and_ignored(
     r.peer.send(can.Message(arbitration_id=0, is_error_frame=True))
     r.peer.send(can.Message(arbitration_id=0, data=b"", is_extended_id=False))
     assert r.tick() == (Status.OK, Status.OK)
+    assert r.read(r.now) == Status.OK and r.state.fresh.all()  # collected with the tick's answers
     assert r.counters["error_frames"] == 1 and r.counters["foreign_frames"] == 1
 
 
@@ -351,6 +358,7 @@ def test_a_malformed_foreign_or_error_frame_is_no_drives_answer(rig, frame, coun
     for _ in range(3):  # such a frame each tick, while drive 1 says nothing
         r.peer.send(frame)
         r.tick()
+    r.read(r.now)  # the last tick's answers
     assert r.counters["missing_replies"] == 3 and r.counters[counter] == 3
 
 
