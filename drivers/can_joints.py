@@ -344,6 +344,7 @@ class MitCanJointGroup(CanJointGroup):
             for m in self._specials[kind]:
                 self.bus.send(m)
             self._sent += 1
+            self._cycle_t = None  # the answers awaited now are this frame's, not a tick's
             self._after_send()
             self._cycle.fill(False)
             self._receive(len(self._cycle), self.exchange_timeout, self._take_answer)

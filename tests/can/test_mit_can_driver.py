@@ -143,7 +143,8 @@ def test_a_pause_longer_than_the_drives_watchdog_is_their_stop(rig):
     assert r.tick()[0] == Status.DEACTIVATE  # until activated again
     r.deactivate()
     r.activate()
-    assert r.tick() == (Status.OK, Status.OK)
+    assert r.tick() == (Status.OK, Status.OK) and r.state.fresh.all()  # the answers to enter motor mode
+    assert r.tick() == (Status.OK, Status.OK) and r.state.fresh.all() and r.counters["missing_replies"] == 0
 
 
 def test_set_zero_is_refused_while_active(rig):
