@@ -16,13 +16,14 @@ Layout of a run configuration (paths are relative to the file)::
     [[controllers]] name, type, joints ([] for an observer that owns no command), divisor,
                   devices (names of non-joint devices it uses), gains …
     [trajectory]  unit, waypoints, smooth, dwell, velocity/acceleration limits, durations
-    [safety]      fallback, damping, stale_ticks, position_margin, estop_off_delay
+    [safety]      fallback, damping, stale_ticks, position_margin, estop_off_delay, following_error …
     [guard]       interference zones and the guard's settings (rtctl.guard.config)
     [telemetry]   path, batch_rows, on_failure ("stop": a writer failure is a safe stop; "continue")
     [control]     socket
 """
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -95,6 +96,8 @@ class SafetyConfig:
     position_margin: float = 0.0  # rad inside the joint limits
     estop_off_delay: float = 0.2  # s of controlled stop before drives are disabled
     fault_off_delay: float = 1.0  # s the fallback holds after a fault before drives are disabled
+    following_error: float | tuple[float, ...] = math.inf  # rad (per joint or all): window around the reference
+    following_ticks: int = 10  # consecutive ticks outside the window that make a fault
 
 
 @dataclass(frozen=True)
@@ -152,7 +155,7 @@ def load_config(path, *, sim: bool = False) -> Config:
     guard = load_guard(t.table("guard", None), robot_file, model)
     if trajectory is not None:
         check_waypoints(trajectory_t, guard, trajectory.waypoints)
-    safety = _safety(t.table("safety", None))
+    safety = _safety(t.table("safety", None), model.nq)
     tele = t.table("telemetry", None)
     telemetry_path, batch, on_failure = None, 500, "stop"
     if tele is not None:
@@ -321,7 +324,7 @@ def _trajectory(t: Table | None, model: Model) -> TrajectoryConfig | None:
     return cfg
 
 
-def _safety(t: Table | None) -> SafetyConfig:
+def _safety(t: Table | None, n: int) -> SafetyConfig:
     if t is None:
         return SafetyConfig()
     cfg = SafetyConfig(
@@ -332,6 +335,20 @@ def _safety(t: Table | None) -> SafetyConfig:
         position_margin=t.float("position_margin", 0.0, min=0.0),
         estop_off_delay=t.float("estop_off_delay", 0.2, min=0.0),
         fault_off_delay=t.float("fault_off_delay", 1.0, min=0.0),
+        following_error=_following_error(t, n),
+        following_ticks=t.int("following_ticks", 10, min=1),
     )
     t.done()
     return cfg
+
+
+def _following_error(t: Table, n: int) -> float | tuple[float, ...]:
+    """``following_error``: one window (rad) for every joint or an array of ``n``, each > 0;
+    absent: no following-error check."""
+    key = "following_error"
+    if isinstance(t.raw(key, None), list):
+        window = t.vector(key, n, min=0.0)
+        if not np.all(window > 0):
+            raise t.error(key, f"positive numbers (rad), got {window.tolist()!r}")
+        return tuple(window.tolist())
+    return t.float(key, math.inf, positive=True)

@@ -79,7 +79,7 @@ class Tick:
         ticker.mark(UPDATE)
 
         self.verdict = self.safety.check(t, ticker.tick, state, self.statuses, command, controller_ok,
-                                         self.controller_error)
+                                         self.controller_error, None if self.trajectory is None else ref.q)
         if self.verdict != Verdict.OK:
             for dev in self.all_devices:
                 dev.safe_state()

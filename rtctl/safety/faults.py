@@ -31,6 +31,7 @@ class FaultKind(enum.IntFlag):
     CONTROLLER = k.CONTROLLER  # a controller raised
     GUARD = k.GUARD  # the guard hook refused the command
     ESTOP = k.ESTOP  # e-stop (operator, control socket, overrun policy)
+    FOLLOWING = k.FOLLOWING  # |q_ref − q| over the window for following_ticks consecutive ticks
 
 
 #: faults that stop like an e-stop (category 1: damping, then drives off) rather than hold

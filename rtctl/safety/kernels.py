@@ -11,31 +11,33 @@ import numpy as np
 from rtctl.compiled import kernel
 
 # rows of the limits table (n columns), see rtctl.safety.limits
-HARD_LO, HARD_HI, SOFT_LO, SOFT_HI, V_LIM, TAU_MAX, KP_MAX, KD_MAX = range(8)
-N_LIMIT_ROWS = 8
+HARD_LO, HARD_HI, SOFT_LO, SOFT_HI, V_LIM, TAU_MAX, KP_MAX, KD_MAX, FOLLOW = range(9)
+N_LIMIT_ROWS = 9
 # rows of the fallback table
 HOLD_KP, HOLD_KD, DAMP_KD, Q_HOLD, TAU_HOLD = range(5)
 N_FALLBACK_ROWS = 5
 # rows of the stage's integer work table (n + 1 columns; column n: robot-wide latched faults)
-STALE_COUNT, FLAGS, LATCHED, DEVICE, CLAMP_TORQUE, CLAMP_POSITION, CLAMP_IMPEDANCE = range(7)
-N_INT_ROWS = 7
+STALE_COUNT, FLAGS, LATCHED, DEVICE, CLAMP_TORQUE, CLAMP_POSITION, CLAMP_IMPEDANCE, FOLLOW_COUNT = range(8)
+N_INT_ROWS = 8
 # what check_tick found
 OK, NEW_STATE_FAULT, NONFINITE_COMMAND_FOUND = 0, 1, 2
 # fault bits, per joint (rtctl.safety.faults.FaultKind mirrors them)
 POSITION, VELOCITY, NONFINITE_STATE, STALE, DEVICE_ERROR, DEVICE_DEACTIVATE = 1, 2, 4, 8, 16, 32
-NONFINITE_COMMAND, CONTROLLER, GUARD, ESTOP = 64, 128, 256, 512
+NONFINITE_COMMAND, CONTROLLER, GUARD, ESTOP, FOLLOWING = 64, 128, 256, 512, 1024
 # command modes (rtctl.hal.joints.CommandMode) and fallback kinds
 TORQUE, IMPEDANCE = 0, 1
 FB_HOLD, FB_DAMP, FB_OFF = 0, 1, 2
 
 
 @kernel
-def scan_state(q, qd, fresh, statuses, lim, iw, stale_ticks):  # pragma: no cover
+def scan_state(q, qd, fresh, statuses, lim, iw, stale_ticks, q_ref, follow, follow_ticks):  # pragma: no cover
     """Per joint j: set ``iw[FLAGS, j]`` to the faults its state shows this tick; returns
     how many joints show one not latched yet. ``iw[STALE_COUNT, j]`` counts consecutive
     ticks without fresh data; the ``stale_ticks``-th one is a fault. A device status other
     than OK (``statuses[iw[DEVICE, j]]``) flags all of its joints: 2 (DEACTIVATE) as
-    DEVICE_DEACTIVATE, anything else as DEVICE_ERROR."""
+    DEVICE_DEACTIVATE, anything else as DEVICE_ERROR. While ``follow`` (controllers in
+    charge of a reference), ``iw[FOLLOW_COUNT, j]`` counts consecutive ticks with
+    |q_ref − q| over ``lim[FOLLOW, j]``; the ``follow_ticks``-th one is a FOLLOWING fault."""
     new = 0
     for j in range(q.shape[0]):
         f = 0
@@ -46,6 +48,12 @@ def scan_state(q, qd, fresh, statuses, lim, iw, stale_ticks):  # pragma: no cove
                 f |= POSITION
             if abs(qd[j]) > lim[V_LIM, j]:
                 f |= VELOCITY
+        if follow and abs(q_ref[j] - q[j]) > lim[FOLLOW, j]:  # False for a NaN: the non-finite checks' case
+            iw[FOLLOW_COUNT, j] += 1
+            if iw[FOLLOW_COUNT, j] >= follow_ticks:
+                f |= FOLLOWING
+        else:
+            iw[FOLLOW_COUNT, j] = 0
         if fresh[j]:
             iw[STALE_COUNT, j] = 0
         else:
@@ -64,11 +72,12 @@ def scan_state(q, qd, fresh, statuses, lim, iw, stale_ticks):  # pragma: no cove
 
 
 @kernel
-def check_tick(q, qd, fresh, statuses, lim, iw, stale_ticks, bound, mode, q_des, qd_des, kp, kd, tau_ff):  # pragma: no cover
+def check_tick(q, qd, fresh, statuses, lim, iw, stale_ticks, q_ref, follow, follow_ticks, bound, mode, q_des,
+               qd_des, kp, kd, tau_ff):  # pragma: no cover
     """The stage's whole steady-state work in one call: :func:`scan_state`, then (if
     ``bound``) :func:`bound_command`. Returns OK, NEW_STATE_FAULT (command not bounded) or
     NONFINITE_COMMAND_FOUND (command untouched)."""
-    if scan_state(q, qd, fresh, statuses, lim, iw, stale_ticks):
+    if scan_state(q, qd, fresh, statuses, lim, iw, stale_ticks, q_ref, follow, follow_ticks):
         return NEW_STATE_FAULT
     if bound and bound_command(mode, q, qd, q_des, qd_des, kp, kd, tau_ff, lim, iw) >= 0:
         return NONFINITE_COMMAND_FOUND

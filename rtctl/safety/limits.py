@@ -11,6 +11,11 @@ Policy (chosen here, applied by :mod:`rtctl.safety.kernels`):
 * **Velocity** — |q̇| above ``velocity_factor`` · v_max is a fault (a runaway is not clamped
   away by a torque bound).
 * **Torque** — clamped to ±tau_max and counted (not a fault: saturation is normal).
+* **Following error** — while the controllers are in charge of a reference, a joint more
+  than ``following_error`` from it for ``following_ticks`` consecutive ticks is a fault (as a
+  drive's following-error window, CiA 402 0x6065/0x6066): a controller that has lost the
+  robot — diverging estimates, a wrong model, a saturated drive — is stopped before a limit
+  has to catch it. Off (∞) unless configured: the window is the robot's and the job's.
 * **Impedance mode** — gains kp ∈ [0, kp_max], kd ∈ [0, kd_max]; q_des inside the soft
   limits; |qd_des| ≤ v_lim; tau_ff shifted so the torque the drive would produce at the
   current state obeys the two rules above. The drive closes the loop faster than the tick,
@@ -21,13 +26,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from rtctl.safety.kernels import (HARD_HI, HARD_LO, KD_MAX, KP_MAX, N_LIMIT_ROWS, SOFT_HI, SOFT_LO,
+from rtctl.safety.kernels import (FOLLOW, HARD_HI, HARD_LO, KD_MAX, KP_MAX, N_LIMIT_ROWS, SOFT_HI, SOFT_LO,
                                   TAU_MAX, V_LIM)
 
 
 def limits_table(q_min, q_max, v_max, tau_max, *, position_margin=0.0, velocity_factor: float = 1.0,
-                 kp_max=np.inf, kd_max=np.inf) -> np.ndarray:
-    """(8, n) table of hard/soft position limits, velocity, torque and impedance-gain bounds."""
+                 kp_max=np.inf, kd_max=np.inf, following_error=np.inf) -> np.ndarray:
+    """(9, n) table of hard/soft position limits, velocity, torque, impedance-gain bounds and
+    the following-error window."""
     q_min, q_max, v_max, tau_max = (np.asarray(x, float) for x in (q_min, q_max, v_max, tau_max))
     n = q_min.shape[0]
     if not all(x.shape == (n,) for x in (q_max, v_max, tau_max)):
@@ -44,6 +50,9 @@ def limits_table(q_min, q_max, v_max, tau_max, *, position_margin=0.0, velocity_
     lim[TAU_MAX] = tau_max
     lim[KP_MAX] = kp_max
     lim[KD_MAX] = kd_max
+    lim[FOLLOW] = following_error
     if np.any(lim[KP_MAX] < 0) or np.any(lim[KD_MAX] < 0):
         raise ValueError("kp_max and kd_max must be >= 0")
+    if not np.all(lim[FOLLOW] > 0):
+        raise ValueError("following_error must be > 0 (inf: no check)")
     return lim

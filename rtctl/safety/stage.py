@@ -1,6 +1,7 @@
 """The safety stage (docs/architecture.md, "The tick"): every tick, after the controllers and before ``write()``.
 
-It checks the measured state (limits, non-finite values, stale data, device status), bounds
+It checks the measured state (limits, non-finite values, stale data, device status, and the
+following error against the reference when one is given), bounds
 the controllers' command in place (:mod:`rtctl.safety.limits`), runs the interference
 guard's hook, and on any fault takes over *in the same tick*: faults latch, the stage writes
 the fallback command and says so in its :class:`Verdict`, so a drive is never left enabled
@@ -8,8 +9,8 @@ without something in charge of it.
 
 Stops:
 
-* an ordinary fault (limit, non-finite or raising controller, stale data, device ERROR,
-  guard) engages the configured fallback — ``"hold"`` (PD to where the robot was at the
+* an ordinary fault (limit, following error, non-finite or raising controller, stale data,
+  device ERROR, guard) engages the configured fallback — ``"hold"`` (PD to where the robot was at the
   fault, with damping) or ``"damp"`` (τ = −D q̇) — and keeps the drives enabled (stop
   category 2, IEC 60204-1) until ``reset()``, or for ``fault_off_delay`` s if finite, after
   which the verdict turns DEACTIVATE;
@@ -21,7 +22,8 @@ Stops:
   :meth:`summary` reports it under ``stop`` with ``faulted`` false.
 
 ``reset()`` clears each latched fault whose cause is gone (position back in range, data
-fresh again, device OK …; e-stops and controller faults are cleared by the reset itself).
+fresh again, device OK …; e-stops, controller and following-error faults are cleared by the
+reset itself — the loop then holds where the robot is, so the reference is there too).
 """
 from __future__ import annotations
 
@@ -37,8 +39,8 @@ from rtctl.safety.limits import limits_table
 log = structlog.get_logger("rtctl.safety")
 
 _MAX_EVENTS = 1000
-_STATE_KINDS = (FaultKind.NONFINITE_STATE, FaultKind.POSITION, FaultKind.VELOCITY, FaultKind.STALE,
-                FaultKind.DEVICE_ERROR, FaultKind.DEVICE_DEACTIVATE)
+_STATE_KINDS = (FaultKind.NONFINITE_STATE, FaultKind.POSITION, FaultKind.VELOCITY, FaultKind.FOLLOWING,
+                FaultKind.STALE, FaultKind.DEVICE_ERROR, FaultKind.DEVICE_DEACTIVATE)
 _DEVICE_KINDS = FaultKind.DEVICE_ERROR | FaultKind.DEVICE_DEACTIVATE
 
 
@@ -50,20 +52,23 @@ class SafetyStage:
     ``gravity``: optional ``q -> τ_g`` evaluated once at a fault, added to the hold.
     ``guard``: optional :class:`~rtctl.safety.faults.Guard`. ``on_event``: optional callable
     receiving every event dict (also logged on the structlog logger ``rtctl.safety``).
-    Scalars or one value per joint for the gains and ``position_margin``.
+    Scalars or one value per joint for the gains, ``position_margin`` and ``following_error``
+    (rad or m; ∞: no following-error check).
     """
 
     def __init__(self, q_min, q_max, v_max, tau_max, *, fallback: str = "hold", hold_stiffness=50.0,
                  damping=5.0, stale_ticks: int = 3, position_margin=0.0, velocity_factor: float = 1.0,
-                 kp_max=np.inf, kd_max=np.inf, estop_off_delay: float = 0.2, fault_off_delay: float = math.inf,
-                 stop_velocity: float = 0.01, device_joints=None, gravity=None, guard=None, on_event=None):
+                 kp_max=np.inf, kd_max=np.inf, following_error=np.inf, following_ticks: int = 10,
+                 estop_off_delay: float = 0.2, fault_off_delay: float = math.inf, stop_velocity: float = 0.01,
+                 device_joints=None, gravity=None, guard=None, on_event=None):
         self.lim = limits_table(q_min, q_max, v_max, tau_max, position_margin=position_margin,
-                                velocity_factor=velocity_factor, kp_max=kp_max, kd_max=kd_max)
+                                velocity_factor=velocity_factor, kp_max=kp_max, kd_max=kd_max,
+                                following_error=following_error)
         n = self.lim.shape[1]
         if fallback not in ("hold", "damp"):
             raise ValueError(f"fallback must be 'hold' or 'damp', not {fallback!r}")
-        if stale_ticks < 1 or estop_off_delay < 0 or fault_off_delay < 0 or stop_velocity < 0:
-            raise ValueError("need stale_ticks >= 1 and non-negative delays and stop_velocity")
+        if stale_ticks < 1 or following_ticks < 1 or estop_off_delay < 0 or fault_off_delay < 0 or stop_velocity < 0:
+            raise ValueError("need stale_ticks >= 1, following_ticks >= 1 and non-negative delays and stop_velocity")
         self.n = n
         self.fallback_kind = k.FB_HOLD if fallback == "hold" else k.FB_DAMP
         self.fb = np.zeros((k.N_FALLBACK_ROWS, n))
@@ -73,6 +78,7 @@ class SafetyStage:
         if np.any(self.fb[:k.Q_HOLD] < 0):
             raise ValueError("hold_stiffness and damping must be >= 0")
         self.stale_ticks = int(stale_ticks)
+        self.following_ticks = int(following_ticks)
         self.estop_off_delay = float(estop_off_delay)
         self.fault_off_delay = float(fault_off_delay)
         self.stop_velocity = float(stop_velocity)
@@ -98,6 +104,7 @@ class SafetyStage:
         self._t, self._tick = 0.0, 0
         self.stop_reason: str | None = None  # set by stop(): the run is ending normally
         self._state = None
+        self._reference = None
         self._statuses = self._ok_statuses
 
     @classmethod
@@ -106,30 +113,38 @@ class SafetyStage:
         object with attributes named like this class's keywords, e.g. rtctl.config's
         SafetyConfig) and ``options``, which win."""
         names = ("fallback", "hold_stiffness", "damping", "stale_ticks", "position_margin", "velocity_factor",
-                 "kp_max", "kd_max", "estop_off_delay", "fault_off_delay", "stop_velocity")
+                 "kp_max", "kd_max", "following_error", "following_ticks", "estop_off_delay", "fault_off_delay",
+                 "stop_velocity")
         kw = {a: getattr(config, a) for a in names if hasattr(config, a)}
         kw.update(options)
         return cls(model.q_min, model.q_max, model.v_max, model.tau_max, **kw)
 
     # -- every tick ----------------------------------------------------------------------
     def check(self, t: float, tick: int, state, statuses, command, controller_ok: bool = True,
-              controller_error: str | None = None) -> Verdict:
+              controller_error: str | None = None, reference=None) -> Verdict:
         """Check ``state``, bound or replace ``command`` in place, and return the verdict.
 
         ``statuses``: per device, this tick's read (or write) status as an int64 array (None:
         all OK). ``controller_ok=False`` (a controller raised; ``controller_error`` says how)
-        engages the fallback this tick. Allocates nothing while no fault is latched.
+        engages the fallback this tick. ``reference``: the positions the controllers track this
+        tick (None: no following-error check, and its counts restart). Allocates nothing while
+        no fault is latched.
         """
+        if reference is not None and (reference.ndim != 1 or len(reference) != self.n):
+            raise ValueError(f"reference: one position per joint ({self.n}) expected")
         self._t = t
         self._tick = tick
         self._state = state
+        self._reference = reference
         if statuses is None:
             statuses = self._ok_statuses
         self._statuses = statuses
         q, qd = state.position, state.velocity
         bound = controller_ok and not self._faulted
+        follow = bound and not self._stopping and reference is not None
         mode = int(command.mode)
-        found = k.check_tick(q, qd, state.fresh, statuses, self.lim, self.iw, self.stale_ticks, bound, mode,
+        found = k.check_tick(q, qd, state.fresh, statuses, self.lim, self.iw, self.stale_ticks,
+                             q if reference is None else reference, follow, self.following_ticks, bound, mode,
                              command.q_des, command.qd_des, command.kp, command.kd, command.tau_ff)
         if found == k.NEW_STATE_FAULT:
             self._latch_state_faults(q, qd, statuses)
@@ -241,6 +256,7 @@ class SafetyStage:
     # -- fault bookkeeping (rare path: may allocate) --------------------------------------
     def _clear_latch(self):
         self._latched[:] = 0
+        self.iw[k.FOLLOW_COUNT] = 0  # the reference is re-planned where the robot is
         self._faulted = False
         self._deactivated = False
         self._stopping = False
@@ -264,6 +280,10 @@ class SafetyStage:
                 elif kind == FaultKind.NONFINITE_STATE:
                     value = q[j] if not np.isfinite(q[j]) else qd[j]
                     why = f"joint {j} reported a non-finite state"
+                elif kind == FaultKind.FOLLOWING:
+                    e = self._reference[j] - q[j]
+                    value, why = e, (f"joint {j} following error {e:.6g} beyond ±{lim[k.FOLLOW, j]:.6g} for "
+                                     f"{self.following_ticks} ticks (reference {self._reference[j]:.6g})")
                 elif kind == FaultKind.STALE:
                     value, why = stale[j], f"joint {j}: no fresh data for {stale[j]} ticks"
                 else:
@@ -322,7 +342,7 @@ class SafetyStage:
             return bool(self.iw[k.STALE_COUNT, j] == 0)
         if f.kind & _DEVICE_KINDS:
             return bool(self._statuses[self.device_of_joint[j]] == 0)
-        return True  # non-finite command: the controller is reset by the loop
+        return True  # non-finite command, following error: the loop resets the controllers and the reference
 
     def _event(self, name: str, level: str, **fields):
         event = {"event": name, "t": self._t, "tick": self._tick, **fields}

@@ -18,6 +18,10 @@ CASES = [
     ("two owners", lambda s: s + '\n[[controllers]]\nname = "pd"\ntype = "pd_gravity"\nkp = 1.0\nkd = 1.0\n',
      "controllers[1].joints", "one controller per joint"),
     ("not TOML", lambda s: s + "\n[[[", "<syntax>", "valid TOML"),
+    ("following window per joint, too few", lambda s: s + "\n[safety]\nfollowing_error = [0.1, 0.1]\n",
+     "safety.following_error", "array of 6 numbers"),
+    ("following window of zero", lambda s: s + "\n[safety]\nfollowing_error = [0.1, 0.1, 0.0, 0.1, 0.1, 0.1]\n",
+     "safety.following_error", "positive numbers"),
 ]
 
 

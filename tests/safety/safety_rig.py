@@ -21,8 +21,8 @@ class Rig:
         self.tick = 0
         self.dt = 0.001
 
-    def step(self, controller_ok=True, error=None):
+    def step(self, controller_ok=True, error=None, reference=None):
         v = self.stage.check(self.tick * self.dt, self.tick, self.state, self.statuses, self.command,
-                             controller_ok, error)
+                             controller_ok, error, reference)
         self.tick += 1
         return v

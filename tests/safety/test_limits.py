@@ -262,10 +262,10 @@ def test_zero_fallback_gains_are_accepted():
     Rig(hold_stiffness=0.0, damping=0.0)
 
 
-@pytest.mark.parametrize("option", [{"stale_ticks": 0}, {"estop_off_delay": -1e-3}, {"fault_off_delay": -1e-3},
-                                    {"stop_velocity": -1e-3}])
+@pytest.mark.parametrize("option", [{"stale_ticks": 0}, {"following_ticks": 0}, {"estop_off_delay": -1e-3},
+                                    {"fault_off_delay": -1e-3}, {"stop_velocity": -1e-3}])
 def test_settings_just_beyond_their_bounds_are_refused(option):
-    with pytest.raises(ValueError, match="stale_ticks >= 1 and non-negative"):
+    with pytest.raises(ValueError, match="stale_ticks >= 1, following_ticks >= 1 and non-negative"):
         Rig(**option)
 
 

@@ -276,7 +276,7 @@ def test_the_default_estop_delay_is_a_fifth_of_a_second():
 def test_each_fault_kind_is_a_bit_of_its_own():
     """The kinds are OR-ed into one latched word per joint: two sharing a bit would alias."""
     bits = [int(kind) for kind in FaultKind.__members__.values()]
-    assert all(b > 0 and b & (b - 1) == 0 for b in bits) and len(set(bits)) == len(bits) == 10
+    assert all(b > 0 and b & (b - 1) == 0 for b in bits) and len(set(bits)) == len(bits) == 11
 
 
 def test_a_recorded_fault_cannot_be_changed():
