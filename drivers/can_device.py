@@ -45,9 +45,7 @@ class CanJointGroup(JointGroup):
         self._nans = np.full(n, np.nan)
         self._last_sent = -float("inf")  # clock time of the last command set sent
         self._drives_off: str | None = None  # why the drives must be assumed off (their watchdog)
-        # slcan acknowledges every frame sent with a line that python-can's recv() returns as None:
-        # a collection past its deadline reads that many more before an empty buffer (subclass)
-        self._acks_per_send = 0
+        self._acks_per_send = 0  # see _acknowledged
         self._lost_at: float | None = None  # monotonic time the bus was lost
         self._next_attempt = 0.0
         self.counters = {"cycles": 0, "missing_replies": 0, "late_replies": 0, "malformed_replies": 0,
@@ -82,6 +80,31 @@ class CanJointGroup(JointGroup):
             np.copyto(self._missing_since, t, where=~answered & np.isnan(self._missing_since))  # (rare path)
         np.copyto(self._missing_since, self._nans, where=answered)
         self._stamp = t
+
+    def _acknowledged(self, frames_per_send: int) -> None:
+        """slcan acknowledges every frame sent with a line that python-can's ``recv()`` returns
+        as None once its timeout has passed, like an empty port: past its deadline a collection
+        reads that many more before it takes the port for empty. Subclasses say how many frames
+        a tick sends; other interfaces have no acknowledgements."""
+        kw = self.bus_options.kwargs
+        self._acks_per_send = frames_per_send if kw["interface"] == "slcan" else 0
+        # an empty port blocks a read for the serial timeout (python-can's default 1 ms); an
+        # acknowledgement already there returns at once
+        self._empty_read_s = 0.5 * float(kw.get("timeout", 0.001))
+
+    def _drain(self, take_late) -> None:
+        """Take every frame already received, without waiting: until a read finds the port
+        empty — over slcan, a None that took the serial timeout, not an acknowledgement."""
+        bus, acks = self.bus, self._acks_per_send
+        while True:
+            t0 = time.monotonic()
+            msg = bus.recv(0.0)
+            if msg is not None:
+                take_late(msg)
+            elif acks and time.monotonic() - t0 < self._empty_read_s:
+                acks -= 1
+            else:
+                return
 
     def _receive(self, pending: int, timeout: float, take, acks: int = 0) -> int:
         """Receive until ``take(msg)`` — how many of the awaited frames ``msg`` was — has counted

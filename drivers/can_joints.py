@@ -106,8 +106,7 @@ class MitCanJointGroup(CanJointGroup):
         # every frame goes to every drive, and a drive answers in order: a drive owes the frames
         # sent minus its replies (``_replied``), and its answer to a frame just sent is the last
         # reply it owes — not a late one to an earlier command
-        if bus.kwargs["interface"] == "slcan":
-            self._acks_per_send = n
+        self._acknowledged(n)
         self._cycle_t: float | None = None  # loop time of the commands whose answers read() collects next
         self._replies_by = 0.0  # time.monotonic() by which they are due
         self._sent = 0
@@ -267,7 +266,7 @@ class MitCanJointGroup(CanJointGroup):
         try:
             bus = self.bus
             if min(self._replied) < self._sent:  # answers missing at the last read: late or lost
-                self._receive(1, 0.0, self._take_late)  # the late ones are here by now (no wait)
+                self._drain(self._take_late)  # the late ones are here by now (no wait)
                 self._forget_owed()  # the rest are as good as lost
             for m in messages:
                 bus.send(m)

@@ -34,6 +34,7 @@ class Cia402Frames:
         self._rpdo_msgs = [[(pdo, can.Message(arbitration_id=pdo.cob_id(j.node_id), data=bytearray(pdo.length),
                                               is_extended_id=False)) for pdo in layout.rpdos] for j in joints]
         self._sync_msg = can.Message(arbitration_id=c.SYNC, data=bytearray(), is_extended_id=False)
+        self._acknowledged(sum(map(len, self._rpdo_msgs)) + 1)  # the RPDOs and the SYNC
         self._route = {}  # COB-ID → (kind, row, pdo, bit): preallocated, looked up per frame
         for row, j in enumerate(joints):
             for k, pdo in enumerate(layout.tpdos):
@@ -74,11 +75,12 @@ class Cia402Frames:
         return self._collect()
 
     def _send_sync(self, timeout: float, rows=None) -> None:
-        """Take what arrived since the last collection (EMCY, heartbeats, a late TPDO), send the
-        RPDOs and a SYNC; the TPDOs are awaited until ``timeout`` s from now (:meth:`_collect`)."""
+        """Take what arrived since the last collection (EMCY, heartbeats, a late TPDO: TPDOs
+        carry no cycle number, so one left in the buffer would pass for an answer to this SYNC),
+        send the RPDOs and a SYNC; the TPDOs are awaited until ``timeout`` s from now
+        (:meth:`_collect`)."""
         bus = self.bus
-        while (msg := bus.recv(0.0)) is not None:
-            self._take(msg, late=True)
+        self._drain(self._take_late)
         got = self._got
         for row in range(len(got)):
             got[row] = 0
@@ -100,7 +102,7 @@ class Cia402Frames:
         for row in range(len(got)):
             if rows is None or rows[row]:
                 pending += full.bit_count() - got[row].bit_count()
-        self._receive(pending, max(0.0, self._replies_by - time.monotonic()), self._take)
+        self._receive(pending, max(0.0, self._replies_by - time.monotonic()), self._take, self._acks_per_send)
         fresh, values, sw = self._fresh, self._rows, self._statusword
         missing = not_enabled = 0
         for row in range(len(got)):
@@ -112,6 +114,11 @@ class Cia402Frames:
             not_enabled += word & c.OE_MASK != c.OE_VALUE
         self._not_enabled = not_enabled
         return missing
+
+    def _take_late(self, msg) -> int:
+        """Route a frame that arrived between collections (EMCY, heartbeat, a TPDO too late for
+        its cycle: its values are the newest, it answers nothing)."""
+        return self._take(msg, late=True)
 
     def _take(self, msg, late: bool = False) -> int:
         """Route one received frame; 1 when it is a TPDO this cycle still waited for (of a drive
