@@ -174,7 +174,7 @@ def test_three_joints_over_slcan_track_their_trajectory(tmp_path, hil_sim):
           f"late {counters['late_replies']}")
     with unless_stalled(summary):
         assert code == 0, (summary["stop_reason"], err[-2000:])
-        assert counters["missing_replies"] <= 0.15 * counters["cycles"], counters  # 41 % before
+        assert counters["missing_replies"] <= 0.15 * counters["cycles"], counters  # 213 in 518 before
         assert tracking["max_all"] < SLCAN_MAX and tracking["rms_all"] < SLCAN_RMS, tracking
     assert counters["malformed_replies"] == 0 and counters["heartbeats"] > 0
     assert np.all(np.ptp(telemetry["q"], axis=0) > np.radians(15))  # it moved along the waypoints
