@@ -26,6 +26,7 @@ from rtctl.control.base import Controller
 from rtctl.hal.framegrabber import Frame, FrameGrabber, GrabberSettings
 from rtctl.model import kinematics
 from rtctl.vision.camera import SCREEN, Camera
+from rtctl.vision import marker
 from rtctl.vision.marker import locate
 from rtctl.vision.pixels import unpack
 
@@ -39,6 +40,7 @@ class MarkerObserver(Controller):
         self._t = np.full(history, -np.inf)  # ring of (t, q): the joint positions seen
         self._q = np.zeros((history, model.nq))
         self._k = 0
+        self._warm = False  # the per-image kernels loaded (by the first reset)
         self._q_at = np.zeros(model.nq)
         self._tool_in_last = (model.flange @ model.tool)[:, 3]
         self._rows = np.zeros((0, 0), dtype=np.uint8)  # the search box's rows, unpacked
@@ -69,13 +71,16 @@ class MarkerObserver(Controller):
         self.grabber = grabbers[0]
 
     def reset(self, state) -> None:
-        """Forget the history; the first time, load the per-image kernels (before "started")."""
-        if self._k == 0 and self.images == 0:
+        """Forget the history; the first time, load the per-image kernels (before "started" —
+        also when the daemon's warm-up has already called update(), which no image reaches)."""
+        if not self._warm:
             self._warm_up(state)
+            self._warm = True
         self._t.fill(-np.inf)
         self._k = 0
 
     def _warm_up(self, state) -> None:
+        marker.warm_up()
         settings = GrabberSettings(density=64, scan="frame", word_bits=8)
         words = np.zeros((settings.rows, settings.words_per_row), dtype=np.uint8)
         words[30:34, 30:34] = 255

@@ -70,3 +70,20 @@ def test_observer_tick_without_an_image_allocates_nothing():
     observer.reset(state)
     growth, peak = _growth_and_peak(lambda: observer.update(0.5, state, ref, command), 5000)
     assert growth <= 64 and peak <= 512, (growth, peak)
+
+
+def test_the_first_reset_loads_the_per_image_kernels_even_after_an_update(monkeypatch):
+    """The daemon's warm-up calls update() (no image) before the loop's reset(): that reset must
+    still load the kernels, or the first image compiles them inside the loop (a cold cache
+    stalled a HIL run 0.6 s there and the drives' watchdog stopped them)."""
+    rig = Rig(GrabberSettings())
+    observer = MarkerObserver("marker", rig.model, CAMERA)
+    observer.grabber = type("G", (), {"grab": lambda self: None})()
+    state, ref, command = JointState(6), Reference(6), JointCommand(6)
+    warmed = []
+    monkeypatch.setattr(observer, "_warm_up", lambda s: warmed.append(s))
+    observer.update(0.0, state, ref, command)
+    observer.reset(state)
+    assert warmed == [state]
+    observer.reset(state)  # a later reset: they are loaded already
+    assert warmed == [state]
