@@ -46,6 +46,7 @@ class CanJointGroup(JointGroup):
         self._last_sent = -float("inf")  # clock time of the last command set sent
         self._drives_off: str | None = None  # why the drives must be assumed off (their watchdog)
         self._acks_per_send = 0  # see _acknowledged
+        self._empty_read_s = 0.0
         self._lost_at: float | None = None  # monotonic time the bus was lost
         self._next_attempt = 0.0
         self.counters = {"cycles": 0, "missing_replies": 0, "late_replies": 0, "malformed_replies": 0,
@@ -97,7 +98,7 @@ class CanJointGroup(JointGroup):
         empty — over slcan, a None that took the serial timeout, not an acknowledgement."""
         bus, acks = self.bus, self._acks_per_send
         while True:
-            t0 = time.monotonic()
+            t0 = time.monotonic() if acks else 0.0  # (timed only where acknowledgements come)
             msg = bus.recv(0.0)
             if msg is not None:
                 take_late(msg)

@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rtctl.control.gains import per_joint
 from rtctl.errors import ConfigError, RtctlError
 from rtctl.guard.config import GuardConfig, check_waypoints, load_guard
 from rtctl.model import Model, load_robot
@@ -96,7 +97,7 @@ class SafetyConfig:
     position_margin: float = 0.0  # rad inside the joint limits
     estop_off_delay: float = 0.2  # s of controlled stop before drives are disabled
     fault_off_delay: float = 1.0  # s the fallback holds after a fault before drives are disabled
-    following_error: float | tuple[float, ...] = math.inf  # rad (per joint or all): window around the reference
+    following_error: float | tuple[float, ...] = math.inf  # rad (all joints, or one each): window around the reference
     following_ticks: int = 10  # consecutive ticks outside the window that make a fault
 
 
@@ -342,13 +343,10 @@ def _safety(t: Table | None, n: int) -> SafetyConfig:
     return cfg
 
 
-def _following_error(t: Table, n: int) -> float | tuple[float, ...]:
+def _following_error(t: Table, n: int) -> tuple[float, ...]:
     """``following_error``: one window (rad) for every joint or an array of ``n``, each > 0;
-    absent: no following-error check."""
-    key = "following_error"
-    if isinstance(t.raw(key, None), list):
-        window = t.vector(key, n, min=0.0)
-        if not np.all(window > 0):
-            raise t.error(key, f"positive numbers (rad), got {window.tolist()!r}")
-        return tuple(window.tolist())
-    return t.float(key, math.inf, positive=True)
+    absent: no following-error check (∞)."""
+    window = per_joint(t, "following_error", n, math.inf)
+    if not np.all(window > 0):
+        raise t.error("following_error", f"positive numbers (rad), got {window.tolist()!r}")
+    return tuple(window.tolist())
