@@ -98,6 +98,8 @@ class MitCanJointGroup(CanJointGroup):
         self._dir = np.array([j.direction for j in joints])
         self._offset = np.array([j.offset for j in joints])
         self._effort_scale = self._dir * np.array([j.model.torque_constant for j in joints])
+        # the centre of each reply's quantisation interval, not its floor (mit.reply_half_steps)
+        self._half_p, self._half_v, self._half_e = np.array([mit.reply_half_steps(j.model) for j in joints]).T.copy()
         self._replies = np.zeros((n, mit.REPLY_COLUMNS))
         self._reply_position, self._reply_velocity, self._reply_effort, self._reply_error = (
             self._replies[:, c] for c in (REPLY_POSITION, REPLY_VELOCITY, REPLY_EFFORT, REPLY_ERROR))
@@ -216,12 +218,15 @@ class MitCanJointGroup(CanJointGroup):
                 except Exception as e:
                     self._lost(e)
         got, s, tmp, stale = self._got, self.state, self._tmp, self._stale
-        np.multiply(self._reply_position, self._dir, out=tmp)
+        np.add(self._reply_position, self._half_p, out=tmp)
+        tmp *= self._dir
         tmp += self._offset
         np.copyto(s.position, tmp, where=got)
-        np.multiply(self._reply_velocity, self._dir, out=tmp)
+        np.add(self._reply_velocity, self._half_v, out=tmp)
+        tmp *= self._dir
         np.copyto(s.velocity, tmp, where=got)
-        np.multiply(self._reply_effort, self._effort_scale, out=tmp)
+        np.add(self._reply_effort, self._half_e, out=tmp)
+        tmp *= self._effort_scale
         np.copyto(s.effort, tmp, where=got)
         np.copyto(s.fault, self._reply_error, where=got, casting="unsafe")
         np.copyto(s.fresh, self._cycle)  # a late reply's values are newer than ours but a period old

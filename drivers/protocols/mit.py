@@ -287,6 +287,19 @@ def unpack_reply_into(data, model: MitDriveModel, out, row: int) -> None:
         r[REPLY_ERROR] = state if state >= 8 else 0  # 0/1 are disabled/enabled, not errors
 
 
+def reply_half_steps(model: MitDriveModel) -> tuple[float, float, float]:
+    """Half a step of the reply's position, velocity and effort fields: what a host adds to the
+    firmware's decoding to get the centre of the interval the drive's value lay in.
+
+    The drive truncates, so a code ``x_int`` stands for every value in
+    ``[x_int, x_int + 1)·step + x_min``: decoded as the firmware does, the reading is low by half
+    a step on average. That bias matters where a controller acts on its sign: with a symmetric
+    velocity range a joint at rest truncates to ``2^11 − 1`` and reads −step/2 (−6.3 mrad/s on
+    an AK80-9), which a Coulomb feed-forward ``tanh(q̇/v_c)`` turns into a steady push."""
+    (_, _, psp), (_, _, vsp), _, _, _, (_, _, esp) = model._q
+    return 0.5 * psp / 65535, 0.5 * vsp / 4095, 0.5 * esp / 4095
+
+
 def unpack_reply(data, model: MitDriveModel) -> MitReply:
     """Allocating convenience form of :func:`reply_drive_id` + :func:`unpack_reply_into`."""
     drive_id = reply_drive_id(data, model)

@@ -376,3 +376,28 @@ def test_an_activation_on_a_broken_link_fails_as_a_bus_error(rig):
     with pytest.raises(HardwareError, match="enter motor mode: bus error"):
         r.activate()  # and the exit it then sends to leave no drive enabled cannot hide that
     assert not any(d.enabled for d in r.drive_list)
+
+
+@pytest.mark.parametrize("model", [KATZ, DRIVE_MODELS["ak80-9"], DRIVE_MODELS["dm4310"]], ids=lambda m: m.name)
+def test_a_joint_at_rest_reads_zero_velocity_not_half_a_step_below(rig, model):
+    # the firmware truncates (x − x_min)·(2^bits − 1)/span: a still joint's velocity code is
+    # 2^11 − 1, which decodes to −½ step; the interval's centre is the unbiased reading
+    r = rig([MitJoint("a", 1, model), MitJoint("b", 2, model)])
+    r.q[:], r.qd[:] = [0.0, 0.0], [0.0, 0.0]
+    r.configure()
+    assert r.read(0.0) == Status.OK
+    assert np.all(np.abs(r.state.velocity) < 1e-12), r.state.velocity
+
+
+@pytest.mark.parametrize("model", [KATZ, DRIVE_MODELS["ak80-9"], DRIVE_MODELS["dm4310"]], ids=lambda m: m.name)
+def test_readings_are_within_half_a_step_either_side(rig, model):
+    rng = np.random.default_rng(7)
+    r = rig([MitJoint("a", 1, model), MitJoint("b", 2, model)])
+    r.activate()
+    for _ in range(50):
+        r.q[:] = rng.uniform(*model.p, 2) * 0.99
+        r.qd[:] = rng.uniform(*model.v, 2) * 0.99
+        r.tick()
+        assert r.read(r.now) == Status.OK
+        assert np.all(np.abs(r.state.position - r.q) <= 0.5 * np.ptp(model.p) / 65535 * (1 + 1e-9))
+        assert np.all(np.abs(r.state.velocity - r.qd) <= 0.5 * np.ptp(model.v) / 4095 * (1 + 1e-9))
