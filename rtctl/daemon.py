@@ -37,11 +37,12 @@ from rtctl.guard import run as guarded
 from rtctl.progress import Progress, interval_for
 from rtctl.hal import JointCommand, Status
 from rtctl.model.dynamics import gravity as gravity_of
+from rtctl.moves.pending import Moves
 from rtctl.runtime import build
 from rtctl.safety import SafetyStage, Verdict
 from rtctl.tick import Tick
 from rtctl.timing import PHASES, KnobStatus, MonotonicClock, Ticker, apply_rt, rt_budget
-from rtctl.trajectory import JointLimits, hold, retarget, through_waypoints
+from rtctl.trajectory import JointLimits, hold, through_waypoints
 from rtctl.warmup import Precompile
 
 EXIT_OK, EXIT_FAULT, EXIT_HARDWARE = 0, 3, 4
@@ -107,6 +108,7 @@ class Daemon:
         self.recorder = None
         self.telemetry_failure: str | None = None
         self.tick = Tick(runtime, self.ticker, self.safety)
+        self.moves = Moves(cfg, self.limits, cfg.loop.period)  # `move`: planned in its own process
 
     # -- lifecycle ---------------------------------------------------------------------
     def run(self) -> int:
@@ -123,6 +125,7 @@ class Daemon:
             if path:
                 self.recorder = self._open_recorder(Path(path))
             compiling = Precompile(self._warm_up_groups()).start()  # before the RT knobs: workers run as usual
+            self.moves.start()  # (so does the move planner)
             for report in apply_rt(self._rt_settings(), enforce=self.args.enforce_rt):
                 log.info("rt knob", **report.as_dict())
                 if report.knob == "sched_fifo" and report.status is KnobStatus.APPLIED:
@@ -141,6 +144,7 @@ class Daemon:
         finally:
             if compiling is not None:
                 compiling.abort()
+            self.moves.close()
             self._deactivate_all()
             for dev in self.rt.all_devices:
                 dev.close()
@@ -199,6 +203,7 @@ class Daemon:
             log.info("stopped before start", reason=self.stop_reason)
             return False
         compiling.finish()
+        self.moves.warm()  # it loads the planners' kernels from the cache just filled
         try:
             self.tick.trajectory = self._initial_trajectory(state.position.copy())
         except TrajectoryError as e:  # the devices report a start the limits do not allow
@@ -261,7 +266,7 @@ class Daemon:
                                  durations=tcfg.durations)
 
     def _loop(self, server) -> None:
-        ticker, tick, safety = self.ticker, self.tick, self.safety
+        ticker, tick, safety, moves = self.ticker, self.tick, self.safety, self.moves
         duration = self.args.duration
         stopping_since = None
         ticker.start()
@@ -275,11 +280,18 @@ class Daemon:
             if self.stop_reason is not None and stopping_since is None:
                 stopping_since = t
                 safety.stop(self.stop_reason)  # category 1 like an e-stop, but not a fault
+                moves.cancel(self.stop_reason)
+            planned = moves.swap(t)  # a planned move starts at a tick boundary
+            if planned is not None:
+                tick.trajectory = planned
             tick(t)
             if tick.recorder is not None and tick.recorder.failure is not None:
                 self._telemetry_failed(tick.recorder.failure)
             if server is not None:
                 server.poll()
+            if moves.move is not None and safety.faulted:
+                moves.cancel("a fault is latched: " + safety.faults[-1].reason)
+            moves.poll(t, tick.trajectory)
             if ticker.end_tick() and stopping_since is None:
                 self._fault("overrun limit reached")
             # the stage, not this tick's verdict: a `reset` in poll() may just have re-armed it
@@ -327,9 +339,11 @@ class Daemon:
         if cmd == "stop":
             if self.stop_reason is None:
                 self.stop_reason = "stop requested"
+            self.moves.cancel(self.stop_reason)
             return {"ok": True, "stopping": True}
         if cmd == "estop":
             self.safety.estop("operator e-stop")
+            self.moves.cancel("operator e-stop")
             if not self.estopped and self.stop_reason is None:
                 self.estopped = True
                 log.warning("e-stop", detail="damping, then drives off; `rtctl reset` re-enables them, "
@@ -343,9 +357,12 @@ class Daemon:
 
     def _reset(self) -> dict:
         """Clear the faults whose cause is gone; then hold where the robot is (the old
-        reference moved on while the fallback held) with fresh controllers."""
+        reference moved on while the fallback held) with fresh controllers, and re-enable every
+        device — all of them or none: if one cannot be activated, every device is put back in
+        its safe state and the e-stop latched again, and the reply names the device."""
         if self.stop_reason is not None:
             raise RtctlError(f"the daemon is stopping ({self.stop_reason})")
+        self.moves.cancel("reset")
         if not self.safety.reset():
             return {"ok": False, "faults": [f.reason for f in self.safety.faults]}
         state, ref, t = self.rt.state, self.rt.ref, self.ticker.sim_time_s
@@ -354,43 +371,39 @@ class Daemon:
         for c in self.rt.controllers:
             c.reset(state)
         for dev in self.rt.all_devices:
-            dev.activate()
+            try:
+                dev.activate()
+            except Exception as e:
+                return self._reset_failed(dev, e)
         self.estopped = False
         return {"ok": True, "faults": []}
 
+    def _reset_failed(self, dev, e: Exception) -> dict:
+        why = f"reset failed: device {dev.name} could not be re-enabled ({type(e).__name__}: {e})"
+        log.error("reset failed", device=dev.name, reason=f"{type(e).__name__}: {e}")
+        self.safety.estop(why)
+        for other in self.rt.all_devices:
+            other.safe_state()
+        self._deactivate_all()
+        self.estopped = True
+        return {"ok": False, "error": why + "; every device is back in its safe state, drives off",
+                "faults": [f.reason for f in self.safety.faults]}
+
     def _move(self, req: dict):
-        if self.safety.faulted:
-            raise RtctlError("faults are latched: `rtctl reset` first")
-        scale = np.where(self.model.joint_types == 0, np.pi / 180.0, 1.0) if req.get("deg") else 1.0
-        points = req["waypoints"] if req.get("waypoints") is not None else np.atleast_2d(req["q"])
-        points = np.asarray(points, dtype=float) * scale
-        if points.shape[1] != self.model.nq:
-            raise RtctlError(f"expected {self.model.nq} joint values per point, got {points.shape[1]}")
-        ref, t = self.rt.ref, self.ticker.sim_time_s
-        times = req.get("times")
-        duration = times[0] if times is not None else req.get("duration")
-        extra = {}
-        try:  # each waypoint is reached at its time, or the move is refused with the reason
-            if self.cfg.guard is not None and times is None:  # around the interference zones
-                trajectory, extra = guarded.move_trajectory(self.cfg, t, ref, points, self.limits, duration)
-            else:
-                trajectory = retarget(t, ref.q, ref.qd, ref.qdd, points, self.limits, duration=duration,
-                                      durations=None if times is None else np.diff(times))
-                guarded.check_timed_move(self.cfg, trajectory, t)
-        except TrajectoryError as e:
-            raise RtctlError(f"move refused: {e}") from None
-        asked = times[-1] if times is not None else duration
-        if asked is not None and not extra.get("bypass") and abs(trajectory.t_end - t - asked) > 1e-9 * max(1.0, asked):
-            raise RtctlError(f"move refused: it would end after {trajectory.t_end - t:.6g} s, not the {asked:.6g} s asked")
-        self.tick.trajectory = trajectory
-        return {"ok": True, "t_start": t, "t_end": trajectory.t_end, **extra}
+        """Hand the move to the planner process (:mod:`rtctl.moves`): the reply comes once it
+        is planned and swapped in at a tick, or refused; "busy" while another is pending."""
+        if self.stop_reason is not None:
+            raise RtctlError(f"move refused: the daemon is stopping ({self.stop_reason})")
+        if self.estopped or self.safety.faulted:
+            raise RtctlError("move refused: faults are latched: `rtctl reset` first")
+        return self.moves.request(req, self.ticker.sim_time_s, self.tick.trajectory)
 
     def _status(self) -> dict:
         s = self.rt.state
         return {"ok": True, "robot": self.model.name, "t": self.ticker.sim_time_s, "tick": self.ticker.tick,
                 "q": s.position.tolist(), "qd": s.velocity.tolist(), "q_des": self.rt.ref.q.tolist(),
                 "verdict": Verdict(self.tick.verdict).name, "faults": [f.reason for f in self.safety.faults],
-                "overruns": self.ticker.stats.overruns, "estopped": self.estopped,
+                "overruns": self.ticker.stats.overruns, "estopped": self.estopped, "move": self.moves.state,
                 "stopping": self.stop_reason}
 
     # -- telemetry and summary -----------------------------------------------------------

@@ -46,8 +46,24 @@ ACCEPTS_PER_POLL = 4  # a connection storm costs a poll at most this many accept
 BACKLOG = 64  # connections the kernel queues between polls (a full queue makes connect() wait)
 
 
+class Deferred:
+    """A reply the handler gives later: return one from the handler, :meth:`resolve` it from
+    the loop when the answer is known (a move once it is planned). Until then the connection
+    waits — its further requests stay queued, it is not timed out as idle — and the server
+    sends the reply at its first poll after :meth:`resolve`."""
+
+    __slots__ = ("reply",)
+
+    def __init__(self):
+        self.reply: dict | None = None
+
+    def resolve(self, reply: dict) -> None:
+        if self.reply is None:  # the first answer stands (a cancel after the swap changes nothing)
+            self.reply = reply
+
+
 class _Connection:
-    __slots__ = ("sock", "inbuf", "outbuf", "deadline", "closing", "last_request")
+    __slots__ = ("sock", "inbuf", "outbuf", "deadline", "closing", "last_request", "waiting")
 
     def __init__(self, sock: socket.socket, now: float, deadline: float):
         self.sock = sock
@@ -56,10 +72,11 @@ class _Connection:
         self.deadline = deadline
         self.closing = False  # close once outbuf is sent (after a framing error)
         self.last_request = now  # accepted, or its last request answered: who is dropped first
+        self.waiting: Deferred | None = None  # a request answered later
 
     def eviction_rank(self) -> tuple:
         """Lower is dropped first: closing, then idle, then mid-frame; oldest first in each."""
-        busy = 0 if self.closing else (2 if self.inbuf else 1)
+        busy = 0 if self.closing else (2 if self.inbuf or self.waiting else 1)
         return busy, self.last_request
 
 
@@ -83,6 +100,7 @@ class ControlServer:
         self.idle_timeout = idle_timeout
         self._clients: dict[int, _Connection] = {}
         self._pending: list[int] = []  # connections holding a further (pipelined) frame
+        self._waiting: list[int] = []  # connections whose request's reply is Deferred
         self._next_sweep = 0.0
         self._remove_stale_socket()
         self._listener = self._bind()
@@ -161,6 +179,8 @@ class ControlServer:
         if not events and not self._clients:
             return 0
         handled = 0
+        if self._waiting:
+            self._send_deferred()
         if self._pending:
             pending, self._pending = self._pending, []
             for fd in pending:
@@ -186,6 +206,23 @@ class ControlServer:
         if self._clients:
             self._sweep()
         return handled
+
+    def _send_deferred(self) -> None:
+        still = []
+        for fd in self._waiting:
+            conn = self._clients.get(fd)
+            if conn is None or conn.waiting is None:
+                continue
+            if conn.waiting.reply is None:
+                still.append(fd)
+                continue
+            reply, conn.waiting = conn.waiting.reply, None
+            self._reply(fd, conn, reply)
+            conn.last_request = time.monotonic()
+            conn.deadline = conn.last_request + (self.request_timeout if conn.inbuf else self.idle_timeout)
+            if conn.inbuf and fd in self._clients:
+                self._pending.append(fd)
+        self._waiting = still
 
     def _accept(self) -> int:
         """Accept what is queued (at most ACCEPTS_PER_POLL), making room by dropping the
@@ -228,6 +265,8 @@ class ControlServer:
         return self._handle_frame(fd, conn)
 
     def _handle_frame(self, fd: int, conn: _Connection) -> int:
+        if conn.waiting is not None:  # one request at a time per connection, answered in order
+            return 0
         if len(conn.inbuf) < HEADER.size:
             conn.deadline = time.monotonic() + self.request_timeout
             return 0
@@ -240,7 +279,12 @@ class ControlServer:
             return 0
         body = bytes(conn.inbuf[HEADER.size:HEADER.size + length])
         del conn.inbuf[:HEADER.size + length]
-        self._reply(fd, conn, self._answer(body))
+        reply = self._answer(body)
+        if isinstance(reply, Deferred):
+            conn.waiting, conn.deadline = reply, float("inf")
+            self._waiting.append(fd)
+            return 1
+        self._reply(fd, conn, reply)
         conn.last_request = time.monotonic()
         if conn.inbuf and fd in self._clients:
             # Pipelined bytes: poll() has no news about them, and one request per connection
@@ -261,6 +305,8 @@ class ControlServer:
         except Exception as exc:  # a bug in the handler must not reach the loop
             log.exception("control_handler_failed", cmd=request["cmd"])
             return {"ok": False, "error": f"internal error handling {request['cmd']!r}: {exc!r}"}
+        if isinstance(reply, Deferred):
+            return reply
         reply = {} if reply is None else dict(reply)
         reply.setdefault("ok", True)
         return reply
