@@ -31,6 +31,7 @@ import structlog
 from rtctl import jsonout
 from rtctl.cli import exit_code_for
 from rtctl.config import load_config, realtime_factor
+from rtctl.logs import written_in_background
 from rtctl.control_socket import ControlServer
 from rtctl.errors import ConfigError, HardwareError, RtctlError, TelemetryError, TrajectoryError
 from rtctl.guard import run as guarded
@@ -41,12 +42,13 @@ from rtctl.moves.pending import Moves
 from rtctl.runtime import build
 from rtctl.safety import SafetyStage, Verdict
 from rtctl.tick import Tick
-from rtctl.timing import PHASES, KnobStatus, MonotonicClock, Ticker, apply_rt, rt_budget
+from rtctl.timing import DAEMON_PHASES, SERVE, KnobStatus, MonotonicClock, Ticker, apply_rt, rt_budget
 from rtctl.trajectory import JointLimits, hold, through_waypoints
 from rtctl.warmup import Precompile
 
 EXIT_OK, EXIT_FAULT, EXIT_HARDWARE = 0, 3, 4
 STOP_GRACE_S = 5.0  # longest a controlled stop may take before the drives are cut regardless
+SERVE_BUDGET = 0.2  # of a period: past it a tick serves no further request (but stop and estop)
 
 log = structlog.get_logger("rtctl.daemon")
 
@@ -57,7 +59,8 @@ def run(args, fmt: str) -> int:
     daemon.summary_line = fmt == "json"  # on a terminal the table below says it better
     daemon.progress_s = interval_for(getattr(args, "progress", None), fmt)
     try:
-        return daemon.run()
+        with written_in_background():  # a log reader that does not keep up must not stall a tick
+            return daemon.run()
     finally:
         if fmt == "console" and daemon.summary is not None:
             from rtctl.summary_table import format_summary
@@ -104,7 +107,7 @@ class Daemon:
         # at once, however long the period
         clock = MonotonicClock(round(cfg.loop.spin_us * 1e3), interrupted=lambda: self.stop_reason is not None)
         self.ticker = Ticker(round(1e9 * cfg.loop.period), realtime_factor=cfg.loop.realtime_factor,
-                             max_consecutive_overruns=cfg.loop.overrun_limit, clock=clock)
+                             max_consecutive_overruns=cfg.loop.overrun_limit, clock=clock, phases=DAEMON_PHASES)
         self.recorder = None
         self.telemetry_failure: str | None = None
         self.tick = Tick(runtime, self.ticker, self.safety)
@@ -121,7 +124,8 @@ class Daemon:
         try:
             # the exclusive resources first (a second daemon on the same socket or telemetry
             # file gives up here), then truncate: nothing another run holds is overwritten
-            server = ControlServer(self.args.socket or self.cfg.socket_path, self._handle, n_joints=self.model.nq)
+            server = ControlServer(self.args.socket or self.cfg.socket_path, self._handle, n_joints=self.model.nq,
+                                   budget_s=SERVE_BUDGET * self.cfg.loop.period)
             if path:
                 self.recorder = self._open_recorder(Path(path))
             compiling = Precompile(self._warm_up_groups()).start()  # before the RT knobs: workers run as usual
@@ -292,6 +296,7 @@ class Daemon:
             if moves.move is not None and safety.faulted:
                 moves.cancel("a fault is latched: " + safety.faults[-1].reason)
             moves.poll(t, tick.trajectory)
+            ticker.mark(SERVE)
             if ticker.end_tick() and stopping_since is None:
                 self._fault("overrun limit reached")
             # the stage, not this tick's verdict: a `reset` in poll() may just have re-armed it
@@ -340,7 +345,7 @@ class Daemon:
             if self.stop_reason is None:
                 self.stop_reason = "stop requested"
             self.moves.cancel(self.stop_reason)
-            return {"ok": True, "stopping": True}
+            return {"ok": True, "stopping": True, "t": self.ticker.sim_time_s}
         if cmd == "estop":
             self.safety.estop("operator e-stop")
             self.moves.cancel("operator e-stop")
@@ -348,7 +353,7 @@ class Daemon:
                 self.estopped = True
                 log.warning("e-stop", detail="damping, then drives off; `rtctl reset` re-enables them, "
                                              "`rtctl stop` ends the daemon")
-            return {"ok": True}
+            return {"ok": True, "t": self.ticker.sim_time_s}  # acted on at the next tick: t + one period
         if cmd == "reset":
             return self._reset()
         if cmd == "move":
@@ -413,7 +418,7 @@ class Daemon:
         n = self.model.nq
         rt = self.rt
         schema = {"t": ((), "f8"), "q": (n, "f8"), "qd": (n, "f8"), "q_des": (n, "f8"), "qd_des": (n, "f8"),
-                  "tau": (n, "f8"), "phase_ns": (len(PHASES), "i8")}
+                  "tau": (n, "f8"), "phase_ns": (len(DAEMON_PHASES), "i8")}
         sources = {"q": rt.state.position, "qd": rt.state.velocity, "q_des": rt.ref.q, "qd_des": rt.ref.qd,
                    "tau": rt.command.tau_ff}
         for c in rt.controllers:
@@ -428,7 +433,7 @@ class Daemon:
             raise ConfigError(*where, f"a file in a directory that exists or can be created; "
                                       f"{path.parent}: {e.strerror or e}") from None
         meta = {"config": str(self.cfg.file), "robot": self.model.name, "joints": list(self.model.joint_names),
-                "rate_hz": self.cfg.loop.rate_hz, "phases": list(PHASES)}
+                "rate_hz": self.cfg.loop.rate_hz, "phases": list(DAEMON_PHASES)}
         for c in rt.controllers:  # e.g. the names of a vector column's entries: "leg_gates_labels"
             meta.update(getattr(c, "telemetry_meta", {}))
         rec = Recorder(path, schema, meta, block_rows=self.cfg.telemetry_batch,

@@ -70,7 +70,8 @@ def _timing(tel, names):
     def draw(ax):
         for name in names:
             values = _columns(tel, name) / 1e3
-            labels = tel.meta.get(f"{name}_labels") or (PHASES if name == "phase_ns" and values.shape[1] == 5
+            phases = tel.meta.get("phases") or PHASES  # (files before the "serve" phase name no phases)
+            labels = tel.meta.get(f"{name}_labels") or (phases if name == "phase_ns" and values.shape[1] == len(phases)
                                                         else [f"{name}[{k}]" for k in range(values.shape[1])])
             for k in range(values.shape[1]):
                 positive = values[:, k][values[:, k] > 0]

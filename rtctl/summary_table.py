@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from rtctl.timing import PHASES
+from rtctl.timing import DAEMON_PHASES
 
 _DASH = "–"
 
@@ -26,7 +26,7 @@ def format_summary(summary: dict) -> str:
 
     rows = [("wake lateness", timing.get("wake_lateness_us") or {})]
     compute = timing.get("compute_us") or {}
-    rows += [("compute " + name, compute.get(name) or {}) for name in ("tick", *PHASES) if name in compute]
+    rows += [("compute " + name, compute.get(name) or {}) for name in ("tick", *DAEMON_PHASES) if name in compute]
     lines.append(f"  {'µs':<18}{'p50':>10}{'p99':>10}{'max':>10}")
     for label, stats in rows:
         lines.append(f"  {label:<18}" + "".join(f"{_num(stats.get(k), '.1f'):>10}" for k in ("p50", "p99", "max")))

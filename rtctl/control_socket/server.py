@@ -7,9 +7,12 @@ loop may need at its next wake-up. Polled from the loop (once per tick, or every
 in the slack after ``write``/``record``), all the work happens where the loop chooses, and
 each call is bounded: one zero-timeout ``poll`` syscall when idle (nothing else), at most
 ``ACCEPTS_PER_POLL`` accepts, one ``recv`` of at most 64 KiB + 4 bytes per ready connection
-and one request handled per connection, at most ``max_clients`` connections. The handler runs
-in the loop thread: it must be quick (record the command for the next tick, build the status
-reply).
+and one request handled per connection, at most ``max_clients`` connections; with a
+``budget_s``, no further request is started once one has been served and the budget is spent —
+the rest wait for the next poll, except ``stop`` and ``estop``, which are always served at once.
+The handler runs in the loop thread: it must be quick (record the command for the next tick,
+build the status reply) and hand anything longer elsewhere — it may return a :class:`Deferred`
+and answer later (a ``move``, planned in another process).
 
 A new connection is never refused, so ``estop`` and ``stop`` always get through: when
 ``max_clients`` connections are open, the one that has waited longest without a request is
@@ -44,6 +47,20 @@ _BROKEN = select.POLLHUP | select.POLLERR | select.POLLNVAL
 _MAX_PENDING_REPLY = 1 << 20  # a client that reads nothing back is dropped past this
 ACCEPTS_PER_POLL = 4  # a connection storm costs a poll at most this many accepts
 BACKLOG = 64  # connections the kernel queues between polls (a full queue makes connect() wait)
+
+
+_URGENT = frozenset({"stop", "estop"})
+
+
+def _urgent(body: bytes) -> bool:
+    """A stop or an e-stop (a few bytes of msgpack): served even past the poll's budget."""
+    if len(body) > 32:
+        return False
+    try:
+        request = decode(body)
+    except ValueError:
+        return False
+    return isinstance(request, dict) and request.get("cmd") in _URGENT
 
 
 class Deferred:
@@ -88,7 +105,8 @@ class ControlServer:
     """
 
     def __init__(self, path, handler, *, n_joints: int | None = None, max_request: int = MAX_REQUEST_BYTES,
-                 max_clients: int = 8, request_timeout: float = 2.0, idle_timeout: float = 2.0):
+                 max_clients: int = 8, request_timeout: float = 2.0, idle_timeout: float = 2.0,
+                 budget_s: float | None = None):
         if max_clients < 1:
             raise ValueError("max_clients must be >= 1")
         self.path = os.fspath(path)
@@ -98,6 +116,9 @@ class ControlServer:
         self.max_clients = max_clients
         self.request_timeout = request_timeout
         self.idle_timeout = idle_timeout
+        self.budget_ns = None if budget_s is None else int(budget_s * 1e9)
+        self._serve_until = 0  # this poll's budget ends (monotonic ns)
+        self._served = 0  # requests handled in this poll
         self._clients: dict[int, _Connection] = {}
         self._pending: list[int] = []  # connections holding a further (pipelined) frame
         self._waiting: list[int] = []  # connections whose request's reply is Deferred
@@ -178,7 +199,9 @@ class ControlServer:
         events = self._poller.poll(0)
         if not events and not self._clients:
             return 0
-        handled = 0
+        handled = self._served = 0
+        if self.budget_ns is not None:
+            self._serve_until = time.monotonic_ns() + self.budget_ns
         if self._waiting:
             self._send_deferred()
         if self._pending:
@@ -278,7 +301,11 @@ class ControlServer:
             conn.deadline = time.monotonic() + self.request_timeout
             return 0
         body = bytes(conn.inbuf[HEADER.size:HEADER.size + length])
+        if self._over_budget() and not _urgent(body):
+            self._pending.append(fd)  # served first at the next poll
+            return 0
         del conn.inbuf[:HEADER.size + length]
+        self._served += 1
         reply = self._answer(body)
         if isinstance(reply, Deferred):
             conn.waiting, conn.deadline = reply, float("inf")
@@ -292,6 +319,11 @@ class ControlServer:
             self._pending.append(fd)
         conn.deadline = time.monotonic() + (self.request_timeout if conn.inbuf else self.idle_timeout)
         return 1
+
+    def _over_budget(self) -> bool:
+        """This poll has served a request and spent its budget: the rest waits for the next
+        poll (a stop or an e-stop never waits: see _urgent)."""
+        return self.budget_ns is not None and self._served > 0 and time.monotonic_ns() >= self._serve_until
 
     def _answer(self, body: bytes) -> dict:
         try:

@@ -11,11 +11,11 @@
 from rtctl.timing.busy import BusyMeter, rt_budget
 from rtctl.timing.clock import FakeClock, MonotonicClock
 from rtctl.timing.rt import KnobReport, KnobStatus, RtSettings, apply_rt
-from rtctl.timing.scheduler import PHASES, RECORD, READ, SAFETY, UPDATE, WRITE, Ticker, due
+from rtctl.timing.scheduler import DAEMON_PHASES, PHASES, RECORD, READ, SAFETY, SERVE, UPDATE, WRITE, Ticker, due
 from rtctl.timing.stats import LoopStats
 
 __all__ = [
     "FakeClock", "MonotonicClock", "Ticker", "due", "LoopStats", "BusyMeter", "rt_budget",
     "RtSettings", "KnobReport", "KnobStatus", "apply_rt",
-    "PHASES", "READ", "UPDATE", "SAFETY", "WRITE", "RECORD",
+    "PHASES", "READ", "UPDATE", "SAFETY", "WRITE", "RECORD", "DAEMON_PHASES", "SERVE",
 ]

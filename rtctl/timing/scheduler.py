@@ -34,6 +34,10 @@ from rtctl.timing.stats import LoopStats
 
 PHASES = ("read", "update", "safety", "write", "record")
 READ, UPDATE, SAFETY, WRITE, RECORD = range(len(PHASES))
+# the daemon's loop adds one: serving the control socket and the move planner's pipe, so that
+# what commands cost the loop shows in its own statistics
+DAEMON_PHASES = (*PHASES, "serve")
+SERVE = len(PHASES)
 LOG_INTERVAL_NS = 1_000_000_000  # at most one overrun record per second
 
 log = structlog.get_logger("rtctl.scheduler")
