@@ -17,6 +17,7 @@ import pytest
 
 from rtctl.control_socket import request
 from runtime_helpers import ROOT
+from test_io_devices import registry  # noqa: F401  (fixture)
 
 RATE_HZ = 250.0  # one period (4 ms) is the bound; well above this VM's own wake-up jitter (≤ 2 ms idle)
 A, B = [0, 45, -180, 0, 45, 0], [-30, 180, -60, 0, 30, 0]  # ready, place behind: the conveyor between
@@ -113,3 +114,53 @@ def test_defect_7_a_move_sent_after_stop_is_refused(write_config, daemon):
     assert replies[0]["ok"] and replies[0]["stopping"]
     assert replies[1] == {"ok": False, "error": "move refused: the daemon is stopping (stop requested)"}
     assert d.finish()[0] == 0
+
+
+def test_defect_5_reset_re_enables_all_devices_or_none(registry, write_config, tmp_path):
+    """The joints' simulator comes back, the I/O device cannot: every device is put back in its
+    safe state (the simulator's drives off again), the e-stop latched, and the reply names it."""
+    from types import SimpleNamespace
+
+    from rtctl.daemon import Daemon
+    from rtctl.runtime import build
+    from test_io_devices import config
+
+    cfg = config(write_config, "activations = 1")  # bring-up's activation, then no more
+    args = SimpleNamespace(telemetry=None, socket=str(tmp_path / "s.sock"), enforce_rt=False, duration=30.0,
+                           summary=None, log_level="error")
+    d = Daemon(cfg, build(cfg), args)
+    seen = {}
+
+    def operator():
+        try:
+            wait(lambda: request(args.socket, "status", timeout=5.0)["ok"])
+            request(args.socket, "estop")
+            wait(lambda: request(args.socket, "status")["verdict"] == "DEACTIVATE")
+            seen["reset"] = request(args.socket, "reset")
+            seen["lifecycles"] = {dev.name: dev.lifecycle.value for dev in d.rt.all_devices}
+            seen["status"] = request(args.socket, "status")
+        finally:
+            request(args.socket, "stop")
+
+    thread = threading.Thread(target=operator)
+    thread.start()
+    code = d.run()
+    thread.join()
+    reply = seen["reset"]
+    assert reply["ok"] is False and "device eye could not be re-enabled" in reply["error"], reply
+    assert "no answer to enable" in reply["error"]
+    assert seen["lifecycles"] == {"sim": "inactive", "eye": "inactive"}, seen["lifecycles"]  # none left enabled
+    assert seen["status"]["estopped"] and seen["status"]["verdict"] != "OK"
+    assert code == 3
+
+
+def wait(predicate, timeout: float = 60.0) -> None:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        try:
+            if predicate():
+                return
+        except Exception:  # (the socket is not there yet)
+            pass
+        time.sleep(0.05)
+    raise AssertionError("timed out")

@@ -22,14 +22,15 @@ from runtime_helpers import BASE
 
 
 class Counter(Hardware):
-    """Counts reads and writes; ``fail_from`` makes reads fail from that tick on."""
+    """Counts reads and writes; ``fail_from`` makes reads fail from that tick on,
+    ``activations`` limits how often it can be activated (then activate() raises)."""
 
     instances: list = []
 
-    def __init__(self, name, fail_from=None, deactivate_fails=False):
+    def __init__(self, name, fail_from=None, deactivate_fails=False, activations=None):
         super().__init__(name)
         self.reads = self.writes = 0
-        self.fail_from, self.deactivate_fails = fail_from, deactivate_fails
+        self.fail_from, self.deactivate_fails, self.activations = fail_from, deactivate_fails, activations
         self.calls: list[str] = []
         Counter.instances.append(self)
 
@@ -37,14 +38,18 @@ class Counter(Hardware):
     def from_config(cls, device, context):
         fail_from = device.options.int("fail_from", -1)
         deactivate_fails = device.options.bool("deactivate_fails", False)
+        activations = device.options.int("activations", -1)
         device.options.done()
-        return cls(device.name, None if fail_from < 0 else fail_from, deactivate_fails)
+        return cls(device.name, None if fail_from < 0 else fail_from, deactivate_fails,
+                   None if activations < 0 else activations)
 
     def _on_configure(self):
         self.calls.append("configure")
 
     def _on_activate(self):
         self.calls.append("activate")
+        if self.activations is not None and self.calls.count("activate") > self.activations:
+            raise HardwareError("eye: no answer to enable")
 
     def _on_deactivate(self):
         self.calls.append("deactivate")
