@@ -4,11 +4,12 @@ Order of events — every step that can fail does so before the next touches any
 
 1. parse and validate the configuration and every plug-in's options (exit 2 on an error);
 2. open the control socket and the telemetry file; load the run's kernels, or start compiling
-   them in worker processes (a machine's first run, :mod:`rtctl.warmup`); apply the real-time
-   knobs (exit 5 with ``--enforce-rt`` if one cannot be applied);
+   them in worker processes (a machine's first run, :mod:`rtctl.warmup`); start the move
+   planner's process (:mod:`rtctl.moves`);
 3. configure the devices (exit 4 if one cannot be brought up, after closing the others) and
-   read the initial state; wait for the kernels, logging progress, and load them; start the
-   trajectory from the state; activate the devices;
+   read the initial state; wait for the kernels, logging progress, and load them; apply the
+   real-time knobs once the compile workers are gone (exit 5 with ``--enforce-rt`` if one
+   cannot be applied); start the trajectory from the state; activate the devices;
 4. the loop, in the main thread, on absolute deadlines, until the duration ends, ``stop``,
    SIGTERM or SIGINT (exit 0) or a safe stop after a fault (exit 3). An operator's
    ``estop`` stops the robot (damping, then drives off) but not the daemon: ``status``
@@ -128,12 +129,8 @@ class Daemon:
                                    budget_s=SERVE_BUDGET * self.cfg.loop.period)
             if path:
                 self.recorder = self._open_recorder(Path(path))
-            compiling = Precompile(self._warm_up_groups()).start()  # before the RT knobs: workers run as usual
-            self.moves.start()  # (so does the move planner)
-            for report in apply_rt(self._rt_settings(), enforce=self.args.enforce_rt):
-                log.info("rt knob", **report.as_dict())
-                if report.knob == "sched_fifo" and report.status is KnobStatus.APPLIED:
-                    self.ticker.busy.limit = rt_budget()  # Linux stops a FIFO thread over it
+            compiling = Precompile(self._warm_up_groups()).start()
+            self.moves.start()  # the move planner: a process of its own, like the compile workers
             if self._bring_up(compiling):
                 self._loop(server)
             self._fault_if_latched()
@@ -168,19 +165,30 @@ class Daemon:
             log.error("fault: safe stop", reason="the run ended with faults latched: " + "; ".join(pending[:3]),
                       stop_reason=self.stop_reason)
 
+    def _apply_rt(self) -> None:
+        """The real-time knobs, once the compile workers are gone (a loop at SCHED_FIFO would
+        take a core from them) and before a drive is enabled (exit 5 with ``--enforce-rt``)."""
+        rt, lock_step = self._rt_settings()
+        for report in apply_rt(rt, enforce=self.args.enforce_rt):
+            if report.knob == "sched_fifo" and lock_step:
+                log.warning("rt knob", knob="sched_fifo", status="off",
+                            detail="lock-step (realtime_factor = 0) never sleeps: SCHED_FIFO would starve its core")
+                continue
+            log.info("rt knob", **report.as_dict())
+            if report.knob == "sched_fifo" and report.status is KnobStatus.APPLIED:
+                self.ticker.busy.limit = rt_budget()  # Linux stops a FIFO thread over it
+
     def _rt_settings(self):
-        """The knobs to apply: ``--enforce-rt`` asks for the full set (what is not configured
-        gets a default); a lock-step run never sleeps, so it must not run SCHED_FIFO (it would
-        starve its core) — its priority knob is left alone."""
+        """(The knobs to apply, whether SCHED_FIFO was dropped): ``--enforce-rt`` asks for the
+        full set (what is not configured gets a default); a lock-step run never sleeps, so it
+        must not run SCHED_FIFO (it would starve its core) — its priority knob is left alone."""
         rt = self.cfg.loop.rt
         if self.args.enforce_rt:
             rt = replace(rt, priority=rt.priority or 80, mlockall=True, timer_slack_ns=rt.timer_slack_ns or 1,
                          gc_freeze=True)
         if self.cfg.loop.realtime_factor == 0 and rt.priority:
-            log.warning("rt knob", knob="sched_fifo", status="off",
-                        detail="lock-step (realtime_factor = 0) never sleeps: SCHED_FIFO would starve its core")
-            rt = replace(rt, priority=0)
-        return rt
+            return replace(rt, priority=0), True
+        return rt, False
 
     def _bring_up(self, compiling: Precompile) -> bool:
         """Configure the devices, prepare the kernels, plan, activate: True when started, False
@@ -207,6 +215,7 @@ class Daemon:
             log.info("stopped before start", reason=self.stop_reason)
             return False
         compiling.finish()
+        self._apply_rt()
         self.moves.warm()  # it loads the planners' kernels from the cache just filled
         try:
             self.tick.trajectory = self._initial_trajectory(state.position.copy())

@@ -186,3 +186,17 @@ def test_a_normal_end_is_a_stop_not_a_fault(write_config, tmp_path):
     assert line["event"] == "summary" and line["faults"] == len(summary["safety"]["faults"]) == 0
     assert summary["safety"]["faulted"] is False and summary["safety"]["stop"]["reason"] == "duration reached"
     assert summary["safety"]["deactivated"]
+
+
+def test_the_real_time_knobs_apply_after_the_kernels_and_a_lock_step_run_says_once_why_not_fifo(write_config, tmp_path):
+    """Issue 26 items 13 and 14: the knobs apply once the compile workers are gone (the loop at
+    SCHED_FIFO must not take a core from them), before the drives are enabled; a lock-step run
+    says once that it will not take SCHED_FIFO (it said it twice: a warning, then "not requested")."""
+    config = write_config(BASE + "\n[loop.rt]\npriority = 80\n")
+    result = rtctl("run", config, "--duration", "0.05", "--socket", tmp_path / "s", "--log-format", "json")
+    assert result.returncode == 0, result.stderr
+    events = [json.loads(line)["event"] for line in result.stdout.splitlines()]
+    fifo = [json.loads(line) for line in result.stdout.splitlines() if '"sched_fifo"' in line]
+    assert len(fifo) == 1 and fifo[0]["level"] == "warning" and "lock-step" in fifo[0]["detail"], fifo
+    knobs = [i for i, e in enumerate(events) if e == "rt knob"]
+    assert knobs and events.index("kernels loaded") < knobs[0] and knobs[-1] < events.index("started")
