@@ -40,8 +40,9 @@ from rtctl.progress import Progress, interval_for
 from rtctl.hal import JointCommand, Status
 from rtctl.model.dynamics import gravity as gravity_of
 from rtctl.moves.pending import Moves
+from rtctl.operator import Operator
 from rtctl.runtime import build
-from rtctl.safety import SafetyStage, Verdict
+from rtctl.safety import SafetyStage
 from rtctl.tick import Tick
 from rtctl.timing import DAEMON_PHASES, SERVE, KnobStatus, MonotonicClock, Ticker, apply_rt, rt_budget
 from rtctl.trajectory import JointLimits, hold, through_waypoints
@@ -113,6 +114,7 @@ class Daemon:
         self.telemetry_failure: str | None = None
         self.tick = Tick(runtime, self.ticker, self.safety)
         self.moves = Moves(cfg, self.limits, cfg.loop.period)  # `move`: planned in its own process
+        self.operator = Operator(self)  # what the control socket's commands do
 
     # -- lifecycle ---------------------------------------------------------------------
     def run(self) -> int:
@@ -125,7 +127,7 @@ class Daemon:
         try:
             # the exclusive resources first (a second daemon on the same socket or telemetry
             # file gives up here), then truncate: nothing another run holds is overwritten
-            server = ControlServer(self.args.socket or self.cfg.socket_path, self._handle, n_joints=self.model.nq,
+            server = ControlServer(self.args.socket or self.cfg.socket_path, self.operator.handle, n_joints=self.model.nq,
                                    budget_s=SERVE_BUDGET * self.cfg.loop.period)
             if path:
                 self.recorder = self._open_recorder(Path(path))
@@ -146,7 +148,7 @@ class Daemon:
             if compiling is not None:
                 compiling.abort()
             self.moves.close()
-            self._deactivate_all()
+            self.deactivate_all()
             for dev in self.rt.all_devices:
                 dev.close()
             if server is not None:
@@ -312,11 +314,11 @@ class Daemon:
             if safety.deactivated or (stopping_since is not None and t - stopping_since > STOP_GRACE_S):
                 if self.stop_reason is None and not self.estopped:
                     self._fault("safety stop: " + "; ".join(f.reason for f in safety.faults[-3:]))
-                self._deactivate_all()
+                self.deactivate_all()
                 if self.stop_reason is not None:
                     break
 
-    def _deactivate_all(self) -> None:
+    def deactivate_all(self) -> None:
         """Every device's actuators off. One that cannot confirm it is a hardware error: what
         stops its drives then is their own watchdog, and the operator must know."""
         for dev in self.rt.all_devices:
@@ -344,81 +346,6 @@ class Daemon:
     def _on_signal(self, signum, frame) -> None:
         if self.stop_reason is None:
             self.stop_reason = f"signal {signal.Signals(signum).name}"
-
-    # -- control socket (runs in the loop thread, at a tick boundary) ----------------------
-    def _handle(self, req: dict):
-        cmd = req["cmd"]
-        if cmd == "status":
-            return self._status()
-        if cmd == "stop":
-            if self.stop_reason is None:
-                self.stop_reason = "stop requested"
-            self.moves.cancel(self.stop_reason)
-            return {"ok": True, "stopping": True, "t": self.ticker.sim_time_s}
-        if cmd == "estop":
-            self.safety.estop("operator e-stop")
-            self.moves.cancel("operator e-stop")
-            if not self.estopped and self.stop_reason is None:
-                self.estopped = True
-                log.warning("e-stop", detail="damping, then drives off; `rtctl reset` re-enables them, "
-                                             "`rtctl stop` ends the daemon")
-            return {"ok": True, "t": self.ticker.sim_time_s}  # acted on at the next tick: t + one period
-        if cmd == "reset":
-            return self._reset()
-        if cmd == "move":
-            return self._move(req)
-        raise RtctlError(f"unknown command {cmd!r}")
-
-    def _reset(self) -> dict:
-        """Clear the faults whose cause is gone; then hold where the robot is (the old
-        reference moved on while the fallback held) with fresh controllers, and re-enable every
-        device — all of them or none: if one cannot be activated, every device is put back in
-        its safe state and the e-stop latched again, and the reply names the device."""
-        if self.stop_reason is not None:
-            raise RtctlError(f"the daemon is stopping ({self.stop_reason})")
-        self.moves.cancel("reset")
-        if not self.safety.reset():
-            return {"ok": False, "faults": [f.reason for f in self.safety.faults]}
-        state, ref, t = self.rt.state, self.rt.ref, self.ticker.sim_time_s
-        self.tick.trajectory = hold(state.position.copy(), t)
-        self.tick.trajectory.sample(t, ref.q, ref.qd, ref.qdd)
-        for c in self.rt.controllers:
-            c.reset(state)
-        for dev in self.rt.all_devices:
-            try:
-                dev.activate()
-            except Exception as e:
-                return self._reset_failed(dev, e)
-        self.estopped = False
-        return {"ok": True, "faults": []}
-
-    def _reset_failed(self, dev, e: Exception) -> dict:
-        why = f"reset failed: device {dev.name} could not be re-enabled ({type(e).__name__}: {e})"
-        log.error("reset failed", device=dev.name, reason=f"{type(e).__name__}: {e}")
-        self.safety.estop(why)
-        for other in self.rt.all_devices:
-            other.safe_state()
-        self._deactivate_all()
-        self.estopped = True
-        return {"ok": False, "error": why + "; every device is back in its safe state, drives off",
-                "faults": [f.reason for f in self.safety.faults]}
-
-    def _move(self, req: dict):
-        """Hand the move to the planner process (:mod:`rtctl.moves`): the reply comes once it
-        is planned and swapped in at a tick, or refused; "busy" while another is pending."""
-        if self.stop_reason is not None:
-            raise RtctlError(f"move refused: the daemon is stopping ({self.stop_reason})")
-        if self.estopped or self.safety.faulted:
-            raise RtctlError("move refused: faults are latched: `rtctl reset` first")
-        return self.moves.request(req, self.ticker.sim_time_s, self.tick.trajectory)
-
-    def _status(self) -> dict:
-        s = self.rt.state
-        return {"ok": True, "robot": self.model.name, "t": self.ticker.sim_time_s, "tick": self.ticker.tick,
-                "q": s.position.tolist(), "qd": s.velocity.tolist(), "q_des": self.rt.ref.q.tolist(),
-                "verdict": Verdict(self.tick.verdict).name, "faults": [f.reason for f in self.safety.faults],
-                "overruns": self.ticker.stats.overruns, "estopped": self.estopped, "move": self.moves.state,
-                "stopping": self.stop_reason}
 
     # -- telemetry and summary -----------------------------------------------------------
     def _open_recorder(self, path: Path):
