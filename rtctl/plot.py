@@ -231,8 +231,9 @@ def figure(path, columns: int = 3):
     """The matplotlib Figure ``plot_run`` saves."""
     Figure = _figure_class()
     tel = read(path)
+    tel.require_rows("plot")
     panels = _panels(tel)
-    if not panels or tel.rows == 0:
+    if not panels:
         raise RtctlError(f"{path}: nothing to plot ({tel.rows} rows, columns: {', '.join(tel.columns)})")
     rows = math.ceil(len(panels) / columns)
     fig = Figure(figsize=(5 * columns, 3 * rows), layout="constrained")
@@ -246,5 +247,5 @@ def figure(path, columns: int = 3):
     fig.suptitle(f"{meta.get('config', path)} — {tel.rows} ticks"
                  + (f" at {meta['rate_hz']:g} Hz" if "rate_hz" in meta else "")
                  + (f", {tel.dropped_rows} rows dropped" if tel.dropped_rows else "")
-                 + (" (file truncated)" if tel.truncated else ""))
+                 + (f" ({tel.incomplete})" if tel.incomplete else ""))
     return fig

@@ -29,7 +29,7 @@ from rtctl.compiled import kernel, leaf
 from rtctl.control.base import Controller
 from rtctl.control.gmv import gmv_law, gmv_phi
 from rtctl.errors import ControllerError
-from rtctl.estimation.arx import ArxOrder, push_history, regressor_into
+from rtctl.estimation.arx import MAX_ORDER, ArxOrder, push_history, regressor_into
 from rtctl.estimation.sage_husa import (QUANTITIES, SWITCH_NAMES, SageHusa, first_nonfinite, sage_husa_step,
                                         state_views)
 
@@ -140,7 +140,7 @@ class ArmaGmv(Controller):
         """Options: na, nb, d, lam, rho, adapt = {r, R, q, Q}, theta0, P0, r0, R0, q0, Q0, Q_min,
         R_min, forget_covariance (docs/arma_kalman.md)."""
         t, m = cfg.options, len(cfg.joints)
-        order = ArxOrder(t.int("na", 2, min=1), t.int("nb", 2, min=1), t.int("d", 1, min=1))
+        order = ArxOrder(*(t.int(k, default, min=1, max=MAX_ORDER[k]) for k, default in (("na", 2), ("nb", 2), ("d", 1))))
         lam = t.float("lam", 0.98)
         if not 0.0 < lam < 1.0:
             raise t.error("lam", f"a number in (0, 1), got {lam!r}")

@@ -15,6 +15,11 @@ import numpy as np
 from rtctl.compiled import kernel
 
 
+# far beyond a joint's model (the paper's is n = 2, d = 1); the bound keeps P (p × p per joint)
+# and the histories small: na = 100000 asked for 224 GiB
+MAX_ORDER = {"na": 16, "nb": 16, "d": 64}
+
+
 @dataclass(frozen=True)
 class ArxOrder:
     na: int = 2
@@ -22,10 +27,10 @@ class ArxOrder:
     d: int = 1
 
     def __post_init__(self):
-        for name, low in (("na", 1), ("nb", 1), ("d", 1)):
+        for name, high in MAX_ORDER.items():
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-                raise ValueError(f"{name} must be an integer ≥ {low}, got {value!r}")
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= high:
+                raise ValueError(f"{name} must be an integer from 1 to {high}, got {value!r}")
 
     @property
     def p(self) -> int:

@@ -6,10 +6,12 @@ every ``period`` seconds — the controller's sample time); ``rtctl identify`` p
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from rtctl.errors import RtctlError
-from rtctl.estimation.arx import ArxOrder, push_history, regressor_into
+from rtctl.errors import ConfigError, RtctlError
+from rtctl.estimation.arx import MAX_ORDER, ArxOrder, push_history, regressor_into
 from rtctl.estimation.sage_husa import EPS, PRED_ERR, SageHusa, sage_husa_step
 from rtctl.jsonout import dumps
 
@@ -53,6 +55,7 @@ def identify_run(path, joints=None, period: float | None = None, order: ArxOrder
     from rtctl.telemetry import read
 
     tel = read(path)
+    tel.require_rows("identify", 2)
     for col in ("q", "tau"):
         if col not in tel:
             raise RtctlError(f"{path}: no column {col!r} to identify from (columns: {', '.join(tel.columns)})")
@@ -70,9 +73,12 @@ def identify_run(path, joints=None, period: float | None = None, order: ArxOrder
             raise RtctlError(f"{path}: the recording does not say its rate; cannot resample at {period} s")
         every = max(1, round(period * rate))
     q, tau = tel["q"].reshape(tel.rows, -1)[::every, idx], tel["tau"].reshape(tel.rows, -1)[::every, idx]
+    if len(q) < 2:
+        raise RtctlError(f"{path}: {tel.rows} rows give {len(q)} sample(s) every {period} s: at least 2 needed")
     result = identify(q, tau, order, **filter_options)
     result["joints"] = [names[i] for i in idx]
     result["period"] = every / rate if rate else None
+    result["rows"], result["samples"], result["incomplete"] = tel.rows, len(q), tel.incomplete
     return result
 
 
@@ -81,16 +87,37 @@ def format_result(result: dict) -> str:
     head = (f"ARX(na={order.na}, nb={order.nb}, d={order.d}), sample time "
             + (f"{result['period']:g} s" if result.get("period") else "one recorded tick"))
     cols = order.names()
-    lines = [head, f"{'joint':<12}" + "".join(f"{c:>13}" for c in cols) + f"{'r̂':>13}{'R̂':>12}{'rms ε':>12}"]
+    head += f"; {result['samples']} samples of {result['rows']} recorded rows" if "rows" in result else ""
+    lines = [head] + ([f"note: {result['incomplete']}"] if result.get("incomplete") else []) + [f"{'joint':<12}" + "".join(f"{c:>13}" for c in cols) + f"{'r̂':>13}{'R̂':>12}{'rms ε':>12}"]
     for j, name in enumerate(result["joints"]):
         lines.append(f"{name:<12}" + "".join(f"{x:>13.6g}" for x in result["theta"][j])
                      + f"{result['r_hat'][j]:>13.4g}{result['R_hat'][j]:>12.3g}{result['eps_rms'][j]:>12.3g}")
     return "\n".join(lines)
 
 
+def _check_arguments(args) -> None:
+    """Exit 2 naming the option, before anything is read or allocated."""
+    def bad(option, expected):
+        return ConfigError("<command line>", option, expected)
+
+    for option, high in MAX_ORDER.items():
+        value = getattr(args, option)
+        if not 1 <= value <= high:
+            raise bad(f"--{option}", f"an integer from 1 to {high}, got {value}")
+    if args.period is not None and not (math.isfinite(args.period) and args.period > 0):
+        raise bad("--period", f"seconds > 0, got {args.period}")
+    if not 0.0 < args.lam < 1.0:
+        raise bad("--lam", f"a number in (0, 1), got {args.lam}")
+    if not (math.isfinite(args.p0) and args.p0 > 0):
+        raise bad("--p0", f"a number > 0, got {args.p0}")
+    if not (math.isfinite(args.r0) and args.r0 >= 0):
+        raise bad("--r0", f"a number ≥ 0, got {args.r0}")
+
+
 def main(args) -> int:
     """``rtctl identify``: print θ̂, r̂, R̂ and the RMS one-step prediction error per joint."""
     joints = [j for part in (args.joints or []) for j in part.split(",") if j]
+    _check_arguments(args)
     try:
         order = ArxOrder(args.na, args.nb, args.d)
         result = identify_run(args.path, joints, args.period, order, lam=args.lam, adapt=tuple(args.adapt),

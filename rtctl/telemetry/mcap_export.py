@@ -73,7 +73,8 @@ def export_mcap(path, out) -> dict:
     return {topic: messages}."""
     Writer = _writer_class()
     tel = read(path)
-    if tel.rows == 0 or "t" not in tel:
+    tel.require_rows("export")
+    if "t" not in tel:
         raise RtctlError(f"{path}: nothing to export ({tel.rows} rows, columns: {', '.join(tel.columns)})")
     t = tel["t"].astype(float)
     n = tel["q"].reshape(tel.rows, -1).shape[1] if "q" in tel else 0

@@ -38,6 +38,24 @@ class Telemetry:
     def dropped_rows(self) -> int:
         return self.footer.get("dropped_rows", 0) if self.footer else 0
 
+    @property
+    def incomplete(self) -> str | None:
+        """Why the file is not a finished run's (None when it is): for the commands that read
+        it to say so, with how many rows they read."""
+        if self.truncated:
+            return f"the file ends inside a record (a crash while writing): {self.rows} complete rows read"
+        if self.footer is None:
+            return f"the file has no footer (the run did not finish writing it): {self.rows} rows read"
+        return None
+
+    def require_rows(self, what: str, minimum: int = 1) -> None:
+        """TelemetryError (exit 2) saying why there is nothing to ``what`` when fewer than
+        ``minimum`` rows were recorded — a header alone is what a daemon killed as it started leaves."""
+        if self.rows < minimum:
+            why = f"; {self.incomplete}" if self.incomplete else ""
+            raise TelemetryError(f"{self.path}: nothing to {what}: {self.rows} rows recorded "
+                                 f"(at least {minimum} needed){why}")
+
     def __getitem__(self, name: str) -> np.ndarray:
         return self.columns[name]
 

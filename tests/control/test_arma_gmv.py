@@ -30,7 +30,7 @@ def test_registered_and_built_from_the_shipped_config():
 @pytest.mark.parametrize("key, value", [
     ("lam", "1.0"), ("lam", "0.0"), ("lam", "nan"),
     ("rho", "0.0"), ("rho", "[1e-9, -1e-9, 1e-9]"), ("rho", "inf"),
-    ("d", "0"), ("na", "0"), ("nb", "0"),
+    ("d", "0"), ("na", "0"), ("nb", "0"), ("na", "100000"), ("nb", "17"), ("d", "65"),  # bounded: na = 100000 asked for 224 GiB
     ("theta0", "[2.0, -1.0, 1e-4, 1e-4]"),
     ("theta0", "[[2.0, -1.0, 1e-4, 1e-4, 0.0], [2.0, -1.0, 1e-4, 1e-4, 0.0]]"),
     ("theta0", "[[2.0, -1.0, 1e-4, 1e-4, 0.0], [2.0, -1.0, 1e-4, 1e-4], [2.0, -1.0, 1e-4, 1e-4, 0.0]]"),
