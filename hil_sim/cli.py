@@ -37,6 +37,7 @@ A configuration whose device is a ``leg_board`` gets the prosthetic leg instead:
 from __future__ import annotations
 
 import argparse
+import errno
 import signal
 import sys
 import threading
@@ -141,7 +142,7 @@ def build(args):
     return hub, plans, buses
 
 
-def serve_socketcand(args, hub, plans, buses) -> None:
+def serve_socketcand(args, hub, plans, buses) -> int:
     from hil_sim.socketcand import SocketcandServer
 
     port = args.port
@@ -153,7 +154,14 @@ def serve_socketcand(args, hub, plans, buses) -> None:
             if port is not None:
                 break
         port = port or 0
-    server = SocketcandServer(buses, args.host, port)
+    try:
+        server = SocketcandServer(buses, args.host, port)
+    except OSError as e:  # in use (another simulator?), an address not of this machine …
+        _close_cameras(hub.cameras)
+        print(f"hil-sim: cannot listen on {args.host}:{port}: {e.strerror or e}"
+              + (" (another hil-sim on that port? --port 0 picks a free one)" if e.errno == errno.EADDRINUSE else ""),
+              file=sys.stderr)
+        return 2
     hub.drop_connections = server.drop_connections
     info = server.info()
     info["env"] = {}
@@ -166,6 +174,7 @@ def serve_socketcand(args, hub, plans, buses) -> None:
         server.serve_forever()
     finally:
         emit({**hub.summary(), "server": server.counters, **_close_cameras(hub.cameras)})
+    return 0
 
 
 def serve_slcan(args, hub, plans, buses) -> None:
@@ -271,6 +280,8 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     if args.realtime_factor < 0:
         p.error("--realtime-factor must be ≥ 0")
+    if args.port is not None and not 0 <= args.port <= 65535:
+        p.error(f"--port must be a TCP port, 0–65535 (0: a free one), got {args.port}")
     try:
         for spec in args.fault:
             ScriptedFault.parse(spec)
@@ -285,12 +296,12 @@ def main(argv=None) -> int:
         return 2
     if args.rt_priority:
         for report in apply_rt(RtSettings(priority=args.rt_priority, mlockall=True, timer_slack_ns=1)):
-            print(f"hil-sim: rt {report.knob}: {report.status} {report.detail}", file=sys.stderr)
+            print(f"hil-sim: rt {report.knob}: {report.status.value} {report.detail}", file=sys.stderr)
     transport = args.transport or plans[0].raw.get("interface")
     if transport == "slcan":
         serve_slcan(args, hub, plans, buses)
     elif transport == "socketcand":
-        serve_socketcand(args, hub, plans, buses)
+        return serve_socketcand(args, hub, plans, buses)
     else:
         _close_cameras(hub.cameras)
         print(f"hil-sim: the configuration's bus interface is {transport!r}: choose --transport socketcand|slcan",
