@@ -39,5 +39,6 @@ class Progress:
             return
         self.due_ns += self.interval_ns * ((self.ticker.wake_ns - self.due_ns) // self.interval_ns + 1)
         error = float(np.max(np.abs(self.ref.q - self.state.position)))  # (allocates: once per interval)
-        log.info("running", t=round(t, 3), duration=self.duration, ticks=self.ticker.stats.ticks,
+        until = {} if self.duration is None else {"duration": self.duration}  # (none: until a stop)
+        log.info("running", t=round(t, 3), **until, ticks=self.ticker.stats.ticks,
                  overruns=self.ticker.stats.overruns, tracking_error=float(f"{error:.3g}"))

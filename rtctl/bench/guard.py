@@ -12,6 +12,7 @@
 """
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import subprocess
@@ -134,12 +135,18 @@ def _planning(repeats: int = 15) -> tuple[dict, dict]:
 
 
 def _ompl(job) -> dict:
+    if importlib.util.find_spec("ompl") is None:
+        return {"available": False, "why": "OMPL is not installed: `.venv/bin/pip install -e '.[bench]'` adds it "
+                                           "(its Python bindings; wheels for Linux x86-64)"}
+    result = None
     try:
         result = subprocess.run([sys.executable, "-m", "rtctl.bench.guard_ompl"], input=json.dumps(job),
                                 capture_output=True, text=True, timeout=300)
         runs = json.loads(result.stdout.splitlines()[0])["runs"]
     except (subprocess.SubprocessError, IndexError, ValueError, OSError) as e:
-        return {"available": False, "why": f"OMPL did not run ({type(e).__name__}); `pip install 'rtctl[bench]'`"}
+        why = result.stderr.strip().splitlines()[-1:] if result is not None else []
+        return {"available": False, "why": f"OMPL is installed but did not run ({type(e).__name__}"
+                                           + (f": {why[0]}" if why else "") + ")"}
     solved = [r for r in runs if r.get("length") is not None]
     if not solved:
         return {"available": True, "solved": 0, "runs": len(runs)}
