@@ -36,6 +36,7 @@ from rtctl.guard.config import GuardConfig, check_waypoints, load_guard
 from rtctl.model import Model, load_robot
 from rtctl.timing.rt import MAX_TIMER_SLACK_NS, RtSettings
 from rtctl.tomltable import Table, load_toml
+from rtctl.trajectory.planning import MAX_DURATION_S
 
 
 MIN_RATE_HZ = 1.0  # the loop's slowest rate: a tick is at most 1 s apart
@@ -313,9 +314,10 @@ def _trajectory(t: Table | None, model: Model) -> TrajectoryConfig | None:
                           f"[{model.q_min[j] / scale[j]:g}, {model.q_max[j] / scale[j]:g}] {unit}")
     acc = t.vector("max_acceleration", model.nq, None, min=1e-6)
     durations = t.vector("durations", None, None)
-    if durations is not None and (not np.all(durations > 0) or len(durations) != len(wp)):
-        raise t.error("durations", f"{len(wp)} positive numbers (s), one per motion segment from the start "
-                                   f"through each waypoint")
+    if durations is not None and (not np.all((durations > 0) & (durations <= MAX_DURATION_S))
+                                  or len(durations) != len(wp)):
+        raise t.error("durations", f"{len(wp)} positive numbers (s) up to {MAX_DURATION_S:g}, one per motion "
+                                   f"segment from the start through each waypoint")
     cfg = TrajectoryConfig(
         waypoints=wp, smooth=t.bool("smooth", True), dwell=t.float("dwell", 0.0, min=0.0),
         velocity_scale=t.float("velocity_scale", 0.5, positive=True, max=1.0),

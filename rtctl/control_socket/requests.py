@@ -28,6 +28,7 @@ from numbers import Real
 import numpy as np
 
 MAX_REQUEST_BYTES = 64 * 1024
+MAX_MOVE_S = 1e6  # the trajectory planner's longest segment (rtctl.trajectory.planning.MAX_DURATION_S)
 
 COMMANDS = {
     "status": frozenset(),
@@ -80,8 +81,8 @@ def _move(request: dict, n_joints: int | None) -> dict:
         out["q"] = _vector(request["q"], "move.q", n_joints)
         if "duration" in request:
             out["duration"] = _number(request["duration"], "move.duration")
-            if out["duration"] <= 0:
-                raise InvalidRequest(f"move.duration: expected > 0 s, got {out['duration']}")
+            if not 0 < out["duration"] <= MAX_MOVE_S:
+                raise InvalidRequest(f"move.duration: expected > 0 s and ≤ {MAX_MOVE_S:g} s, got {out['duration']}")
         return out
     if "duration" in request:
         raise InvalidRequest("move.duration: only with 'q' (use 'times' with 'waypoints')")
@@ -97,8 +98,8 @@ def _move(request: dict, n_joints: int | None) -> dict:
         if not isinstance(times, list) or len(times) != len(rows):
             raise InvalidRequest(f"move.times: expected a list of {len(rows)} numbers (one per waypoint)")
         out["times"] = np.array([_number(t, f"move.times[{i}]") for i, t in enumerate(times)])
-        if out["times"][0] <= 0 or np.any(np.diff(out["times"]) <= 0):
-            raise InvalidRequest("move.times: expected seconds > 0, strictly increasing")
+        if out["times"][0] <= 0 or np.any(np.diff(out["times"]) <= 0) or out["times"][-1] > MAX_MOVE_S:
+            raise InvalidRequest(f"move.times: expected seconds > 0, strictly increasing, ≤ {MAX_MOVE_S:g}")
     return out
 
 

@@ -19,6 +19,8 @@ from rtctl.trajectory.quintic import (braking_target, coefficients, constant, ex
 from rtctl.trajectory.smooth import fit_durations, run_coefficients
 
 _RTOL = 1e-9
+# the longest segment (11.6 days): a quintic over 1e300 s overflows, and its figures read nan
+MAX_DURATION_S = 1e6
 _SAME_POINT = 1e-12  # rad or m: closer points count as one (no segment between them)
 
 
@@ -93,6 +95,7 @@ def through_waypoints(waypoints, limits: JointLimits, *, start=None, smooth: boo
     W = np.atleast_2d(np.asarray(waypoints, float))
     if W.shape[1] != limits.n or len(W) == 0:
         raise TrajectoryError(f"waypoints must be (m, {limits.n}), got {W.shape}")
+    _check_durations(durations)
     first = 0 if start is None else 1
     points = W if start is None else np.vstack([np.asarray(start, float), W])
     if not np.all(np.isfinite(points)):
@@ -152,11 +155,20 @@ def _run(points, limits, requested, first_segment):
     return list(T), list(C)
 
 
+def _check_durations(durations) -> None:
+    """Requested durations (None entries: the shortest) must lie in (0, MAX_DURATION_S]."""
+    if durations is None:
+        return
+    for k, T in enumerate(durations):
+        if T is not None and not 0 < T <= MAX_DURATION_S:
+            raise TrajectoryError(f"duration {k}: {T:.6g} s must be positive and at most {MAX_DURATION_S:g} s")
+
+
 def _check(c, T, limits, segment):
     """Refuse a segment (an index, or a label such as "the move to waypoint 0") that breaks the limits."""
     segment = segment if isinstance(segment, str) else f"segment {segment}"
-    if T <= 0:
-        raise TrajectoryError(f"{segment}: duration {T:.6g} s must be positive")
+    if not 0 < T <= MAX_DURATION_S:
+        raise TrajectoryError(f"{segment}: duration {T:.6g} s must be positive and at most {MAX_DURATION_S:g} s")
     if fits(c, T, limits.v_max, limits.a_max, limits.q_min, limits.q_max):
         return
     e = extrema(c, T)
@@ -203,6 +215,7 @@ def retarget(t: float, q, qd, qdd, waypoints, limits: JointLimits, *, duration: 
     """
     q, qd, qdd = (np.asarray(x, float) for x in (q, qd, qdd))
     W = np.atleast_2d(np.asarray(waypoints, float))
+    _check_durations(None if duration is None else [duration])
     limits.check_position(q, "start")
     rest = through_waypoints(W, limits, smooth=smooth, dwell=dwell, durations=durations)  # validates the waypoints
     at_rest = not (np.any(qd) or np.any(qdd))

@@ -43,3 +43,21 @@ def test_bench_guard_without_ompl_says_it_is_not_installed_and_how_to_get_it(mon
     monkeypatch.setattr(importlib.util, "find_spec", lambda name: None)
     why = guard._ompl({})["why"]
     assert why.startswith("OMPL is not installed") and "'.[bench]'" in why and "IndexError" not in why
+
+
+def test_a_duration_of_1e300_is_refused_with_the_bound_not_nan_figures(write_config, recwarn):
+    import pytest
+
+    from rtctl.config import load_config
+    from rtctl.errors import ConfigError, TrajectoryError
+    from rtctl.trajectory import JointLimits, retarget
+    from runtime_helpers import BASE
+
+    limits = JointLimits(np.ones(2), np.ones(2), -3 * np.ones(2), 3 * np.ones(2))
+    with pytest.raises(TrajectoryError) as e:
+        retarget(0.0, np.zeros(2), np.zeros(2), np.zeros(2), [[0.5, 0.5]], limits, duration=1e300)
+    assert "at most 1e+06 s" in str(e.value) and "nan" not in str(e.value)
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]  # refused before any overflow
+    with pytest.raises(ConfigError) as e:
+        load_config(write_config(BASE.replace("velocity_scale = 0.4", "velocity_scale = 0.4\ndurations = [1e300, 1, 1]")))
+    assert e.value.key_path == "trajectory.durations" and "up to 1e+06" in e.value.expected
