@@ -285,7 +285,7 @@ class Daemon:
         duration = self.args.duration
         stopping_since = None
         ticker.start()
-        progress = Progress(self.progress_s, duration, ticker, self.rt.state, self.rt.ref)
+        progress = Progress(self.progress_s, duration, ticker, self.rt.state, self.rt.ref, tracking=tick.tracks)
         while True:
             ticker.wait()
             t = ticker.sim_time_s
@@ -409,8 +409,9 @@ class Daemon:
                  realtime_ratio=timing.get("realtime_ratio"),
                  lateness_p99_us=(timing.get("wake_lateness_us") or {}).get("p99"),
                  compute_p99_us=(timing.get("compute_us") or {}).get("tick", {}).get("p99"),
-                 tracking_rms_rad=summary["tracking_error_rad"]["rms_all"],
-                 tracking_max_rad=summary["tracking_error_rad"]["max_all"],
+                 **({} if not self.tick.tracks else {
+                     "tracking_rms_rad": summary["tracking_error_rad"]["rms_all"],
+                     "tracking_max_rad": summary["tracking_error_rad"]["max_all"]}),
                  faults=len(summary["safety"]["faults"]))
 
 

@@ -29,8 +29,9 @@ def interval_for(option: float | None, fmt: str) -> float:
 class Progress:
     """Call :meth:`tick` once per tick after ``ticker.start()``."""
 
-    def __init__(self, interval_s: float, duration: float | None, ticker, state, ref):
+    def __init__(self, interval_s: float, duration: float | None, ticker, state, ref, tracking: bool = True):
         self.interval_ns = int(interval_s * 1e9)
+        self.tracking = tracking  # (a leg's automaton follows no reference: no tracking error)
         self.duration, self.ticker, self.state, self.ref = duration, ticker, state, ref
         self.due_ns = ticker.wake_ns + self.interval_ns if self.interval_ns else math.inf
 
@@ -38,7 +39,8 @@ class Progress:
         if self.ticker.wake_ns < self.due_ns:
             return
         self.due_ns += self.interval_ns * ((self.ticker.wake_ns - self.due_ns) // self.interval_ns + 1)
-        error = float(np.max(np.abs(self.ref.q - self.state.position)))  # (allocates: once per interval)
-        until = {} if self.duration is None else {"duration": self.duration}  # (none: until a stop)
-        log.info("running", t=round(t, 3), **until, ticks=self.ticker.stats.ticks,
-                 overruns=self.ticker.stats.overruns, tracking_error=float(f"{error:.3g}"))
+        fields = {} if self.duration is None else {"duration": self.duration}  # (none: until a stop)
+        if self.tracking:  # (allocates: once per interval)
+            fields["tracking_error"] = float(f"{float(np.max(np.abs(self.ref.q - self.state.position))):.3g}")
+        log.info("running", t=round(t, 3), **fields, ticks=self.ticker.stats.ticks,
+                 overruns=self.ticker.stats.overruns)

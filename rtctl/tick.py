@@ -44,6 +44,7 @@ class Tick:
         self.err_sq = np.zeros(n)  # Σ e² for the RMS in the summary
         self.err_max = np.zeros(n)
         self.samples = 0
+        self.tracks = any(c.follows_reference for c in runtime.controllers)  # else no tracking error means anything
         self.phase_row = None  # telemetry view of the phase times, when recording
 
     def __call__(self, t: float) -> Verdict:
@@ -93,7 +94,7 @@ class Tick:
             self.io_write_statuses[i] = dev.write(t)
         ticker.mark(WRITE)
 
-        if self.verdict == Verdict.OK:  # tracking is the controllers' while they are in charge
+        if self.verdict == Verdict.OK and self.tracks:  # tracking is the controllers' while they are in charge
             self._track()
         if self.recorder is not None:
             self.recorder.row["t"][()] = t
@@ -136,7 +137,11 @@ class Tick:
         self.err_sq += e
         self.samples += 1
 
-    def tracking_summary(self) -> dict:
+    def tracking_summary(self) -> dict | None:
+        """RMS and max |q − q_d| per joint while the controllers were in charge (None when no
+        controller follows the reference)."""
+        if not self.tracks:
+            return None
         names = self.rt.model.joint_names
         m = max(self.samples, 1)
         rms = np.sqrt(self.err_sq / m)

@@ -22,7 +22,13 @@ class Reference:
 
 
 class Controller:
-    """Base class; subclasses implement :meth:`update` and usually :meth:`reset`."""
+    """Base class; subclasses implement :meth:`update` and usually :meth:`reset`.
+
+    ``follows_reference``: whether the controller steers its joints along the run's reference
+    (the trajectory or a ``move``); one that does not (the leg's automaton drives them from
+    its gait) makes "tracking error" meaningless, and the daemon reports none."""
+
+    follows_reference = True
 
     def __init__(self, name: str, model, joints=None, divisor: int = 1):
         self.name = name

@@ -74,6 +74,7 @@ def automaton_tick(channels, gates, pla, labels, data, actions, n_bits, max_pass
 
 
 class LegAutomaton(Controller):
+    follows_reference = False  # the gait, not a trajectory, sets the joints' motion
     def __init__(self, name, model, table, gate_rows, joints=None, divisor=1, max_passes=DEFAULT_MAX_PASSES):
         """``table``: an :class:`~rtctl.logic.table.EventTable`; ``gate_rows``: [4, gates] —
         channel index, threshold, half hysteresis, sense (+1 above, −1 below), SI units."""
