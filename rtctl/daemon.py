@@ -22,6 +22,7 @@ Signals only set a flag; the loop acts on it at the next tick boundary.
 """
 from __future__ import annotations
 
+import contextlib
 import signal
 from dataclasses import replace
 from pathlib import Path
@@ -33,6 +34,7 @@ from rtctl import jsonout
 from rtctl.cli import exit_code_for
 from rtctl.config import load_config, realtime_factor
 from rtctl.logs import written_in_background
+from rtctl.outputs import output_path
 from rtctl.control_socket import ControlServer
 from rtctl.errors import ConfigError, HardwareError, RtctlError, TelemetryError, TrajectoryError
 from rtctl.guard import run as guarded
@@ -60,9 +62,9 @@ def run(args, fmt: str) -> int:
     daemon = prepare(args)
     daemon.summary_line = fmt == "json"  # on a terminal the table below says it better
     daemon.progress_s = interval_for(getattr(args, "progress", None), fmt)
+    daemon.log_in_background = True
     try:
-        with written_in_background():  # a log reader that does not keep up must not stall a tick
-            return daemon.run()
+        return daemon.run()
     finally:
         if fmt == "console" and daemon.summary is not None:
             from rtctl.summary_table import format_summary
@@ -115,16 +117,20 @@ class Daemon:
         self.tick = Tick(runtime, self.ticker, self.safety)
         self.moves = Moves(cfg, self.limits, cfg.loop.period)  # `move`: planned in its own process
         self.operator = Operator(self)  # what the control socket's commands do
+        self.log_in_background = False  # `rtctl run`: the log through a writer thread
 
     # -- lifecycle ---------------------------------------------------------------------
     def run(self) -> int:
         path = self.args.telemetry or self.cfg.telemetry_path
         server = compiling = None
+        logs = contextlib.ExitStack()
         # from here on SIGTERM/SIGINT only set the stop flag: a signal during start-up stops
         # the run at its first tick (or, while kernels compile, before the drives are enabled),
         # with the same summary as later
         previous = {s: signal.signal(s, self._on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
         try:
+            if self.args.summary:  # (written at the end: a path that cannot be is refused now)
+                output_path(self.args.summary, "--summary")
             # the exclusive resources first (a second daemon on the same socket or telemetry
             # file gives up here), then truncate: nothing another run holds is overwritten
             server = ControlServer(self.args.socket or self.cfg.socket_path, self.operator.handle, n_joints=self.model.nq,
@@ -133,6 +139,10 @@ class Daemon:
                 self.recorder = self._open_recorder(Path(path))
             compiling = Precompile(self._warm_up_groups()).start()
             self.moves.start()  # the move planner: a process of its own, like the compile workers
+            if compiling.loaded == len(compiling.groups):  # nothing to compile: it loads its kernels now
+                self.moves.warm()
+            if self.log_in_background:  # (a thread: only after the forks) a slow log reader must not stall a tick
+                logs.enter_context(written_in_background())
             if self._bring_up(compiling):
                 self._loop(server)
             self._fault_if_latched()
@@ -156,6 +166,7 @@ class Daemon:
             self._finish()
             for s, h in previous.items():
                 signal.signal(s, h)
+            logs.close()  # what is queued is written
         return self.exit_code
 
     def _fault_if_latched(self) -> None:

@@ -220,11 +220,15 @@ def _arma_panels(t, tel):
     return panels
 
 
-def plot_run(path, out_png, columns: int = 3) -> None:
-    """Draw the telemetry file ``path`` into the PNG ``out_png`` (its folder is created)."""
+def plot_run(path, out_png, columns: int = 3, option: str = "--output") -> Path:
+    """Draw the telemetry file ``path`` into ``out_png`` (PNG, or PDF/SVG by its suffix; a name
+    without one gets .png; its folder is created); returns the path written."""
+    from rtctl.outputs import output_path
+
+    out = output_path(out_png, option, suffixes=(".png", ".pdf", ".svg"), default_suffix=".png")
     fig = figure(path, columns)
-    Path(out_png).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out_png, dpi=90)
+    fig.savefig(out, dpi=90)
+    return out
 
 
 def figure(path, columns: int = 3):

@@ -118,6 +118,10 @@ def main(args) -> int:
     """``rtctl identify``: print θ̂, r̂, R̂ and the RMS one-step prediction error per joint."""
     joints = [j for part in (args.joints or []) for j in part.split(",") if j]
     _check_arguments(args)
+    if args.json:
+        from rtctl.outputs import output_path
+
+        args.json = output_path(args.json, "--json")
     try:
         order = ArxOrder(args.na, args.nb, args.d)
         result = identify_run(args.path, joints, args.period, order, lam=args.lam, adapt=tuple(args.adapt),

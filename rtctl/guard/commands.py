@@ -70,6 +70,10 @@ def plan(args) -> int:
     from rtctl.config import load_config
     from rtctl.daemon import _trajectory_limits
 
+    if args.plot:
+        from rtctl.outputs import output_path
+
+        args.plot = output_path(args.plot, "--plot", suffixes=(".png", ".pdf", ".svg"), default_suffix=".png")
     cfg = load_config(args.config, sim=args.sim)
     if cfg.guard is None:
         raise ConfigError(cfg.file, "guard", "interference zones (in the robot file or [[guard.zones]]) to plan around")

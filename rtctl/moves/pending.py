@@ -62,7 +62,7 @@ class Moves:
         self._loop_cpus = tuple(cfg.loop.rt.cpus)
         self.period = period
         self._process = self._conn = self._inbox = None
-        self._ready = False
+        self._ready = self._warming = False
         self._ident = 0
         self._in_flight: int | None = None  # the request the planner works on (one at a time: a send never waits)
         self._sent_wall = 0.0  # when it was sent (monotonic wall time)
@@ -83,11 +83,13 @@ class Moves:
                                     name="rtctl-planner", daemon=True)
         self._process.start()
         child.close()
-        self._ready = False
+        self._ready = self._warming = False
 
     def warm(self) -> None:
-        """Let the planner load its kernels (after the warm-up compiled them)."""
-        self._conn.send(("warm",))
+        """Let the planner load its kernels (once the warm-up has compiled them); once."""
+        if not self._warming:
+            self._warming = True
+            self._conn.send(("warm",))
 
     def close(self) -> None:
         """Stop the planner (it holds nothing to clean up) and refuse a pending move."""

@@ -4,7 +4,7 @@ A message is pickled and cut into pieces of at most ``PIECE`` bytes, each one
 :meth:`~multiprocessing.connection.Connection.send_bytes` call: a piece that size reaches the
 reader in one write (a Unix socket queues it whole), so once the pipe polls readable the
 reader's ``recv_bytes`` returns at once — a large trajectory (a 200-waypoint move is 0.3 MB)
-arrives over several ticks instead of blocking one until its writer, at the lowest priority,
+arrives over several ticks instead of blocking one until its writer, at a low priority,
 gets the CPU to finish. The first piece starts with the message's length (4 bytes).
 """
 from __future__ import annotations

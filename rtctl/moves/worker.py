@@ -3,7 +3,7 @@
 Planning a move has no useful time bound (a search around the zones, a long move checked
 against them every 2 ms of its path): here it can take what it takes without delaying a tick.
 The process is spawned (a fresh interpreter: it inherits no device, socket or thread of the
-daemon) at the lowest CPU priority, so on a loaded machine it waits for the loop, not the
+daemon) at a low CPU priority (nice 10), so on a loaded machine it waits for the loop, not the
 reverse; it loads its kernels from the cache the daemon's warm-up filled, then says "ready".
 
 It is started before the daemon takes its real-time settings (so it inherits none of them;
@@ -30,6 +30,11 @@ import time
 import traceback
 
 
+# below every normal process, not at the very bottom: at nice 19 a machine kept busy by other
+# work (a test suite next to it) gave it 1.5 % of a core and a move waited half a minute
+PLANNER_NICE = 10
+
+
 def main(conn, payload: bytes, loop_cpus: tuple = ()) -> None:
     """The process's entry point: ``payload`` is the pickled (configuration, joint limits);
     ``loop_cpus`` the CPUs the loop is pinned to (the planner keeps off them when it can)."""
@@ -54,7 +59,7 @@ def main(conn, payload: bytes, loop_cpus: tuple = ()) -> None:
 
 
 def _leave_realtime(loop_cpus: tuple) -> None:
-    """The lowest CPU priority, and no real-time policy or pinning inherited from the loop:
+    """A low CPU priority, and no real-time policy or pinning inherited from the loop:
     planning must wait for the loop, never the reverse."""
     try:
         if os.sched_getscheduler(0) != os.SCHED_OTHER:
@@ -62,7 +67,7 @@ def _leave_realtime(loop_cpus: tuple) -> None:
         others = set(range(os.cpu_count() or 1)) - set(loop_cpus)
         if others:
             os.sched_setaffinity(0, others)
-        os.nice(19 - os.nice(0))
+        os.nice(PLANNER_NICE - os.nice(0))
     except (OSError, AttributeError):  # (not Linux, or not allowed: then as it is)
         pass
 

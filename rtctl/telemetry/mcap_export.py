@@ -23,7 +23,6 @@ metadata record named ``rtctl``.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 
@@ -71,7 +70,10 @@ def _writer_class():
 def export_mcap(path, out) -> dict:
     """Write the telemetry file ``path`` as the MCAP file ``out`` (its folder is created);
     return {topic: messages}."""
+    from rtctl.outputs import output_path
+
     Writer = _writer_class()
+    out = output_path(out, "--mcap")  # (its folder created)
     tel = read(path)
     tel.require_rows("export")
     if "t" not in tel:
@@ -107,7 +109,6 @@ def export_mcap(path, out) -> dict:
                                    {f"{p}_us": list(columns[k]) for k, p in enumerate(phases)})
 
     events = _events(t, tel, summary)
-    Path(out).parent.mkdir(parents=True, exist_ok=True)
     with open(out, "wb") as f:
         writer = Writer(f)
         writer.start(profile="", library="rtctl")

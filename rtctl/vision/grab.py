@@ -8,7 +8,6 @@ single field is line-doubled, as a monitor shows it, so the picture keeps its as
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -70,9 +69,11 @@ def grab(args) -> int:
     from rtctl.config import load_config
     from rtctl.runtime import build
 
+    from rtctl.outputs import output_path
+
+    out = output_path(args.output, "--output", suffixes=(".png",), default_suffix=".png")
     cfg = load_config(args.config, sim=args.sim)
     name, frame = grab_frame(build(cfg), args.device, args.timeout)
-    Path(args.output).parent.mkdir(parents=True, exist_ok=True)
-    save_png(frame, args.output)
-    print(f"{args.output}: {name}: {frame!r}")
+    save_png(frame, out)
+    print(f"{out}: {name}: {frame!r}")
     return 0

@@ -49,8 +49,7 @@ def run_ticks(moves, trajectory, t, until, paced=True, timeout=30.0):
         trajectory.sample(t, q, qd, qdd)
         refs.append((t, q.copy(), qd.copy(), qdd.copy()))
         moves.poll(t, trajectory)
-        if paced:
-            time.sleep(PERIOD)
+        time.sleep(PERIOD if paced else PERIOD / 5)  # unpaced: loop time runs 5× ahead of the wall
         t += PERIOD
     return trajectory, t, refs
 
