@@ -17,12 +17,14 @@ up devices that name the same bus). Options (the ``[[devices]]`` table; drive la
 Lifecycle: ``configure`` opens the bus and sends *exit motor mode* to every drive — answered
 with its state, so states are readable and nothing is enabled (a drive left on by a crashed
 run is turned off). ``activate`` sends *enter motor mode* and requires every answer.
-``deactivate`` sends *exit motor mode*, always (reopening the bus once if it was lost), up to
-three times until every drive answered it. A drive answers every frame, in order, and the
-Katz reply does not say whether the motor is on: so the answer to a mode frame is the last
-reply a drive owes (the driver counts the frames each drive has not answered), never a late
-reply to an earlier command. A drive that does not answer makes ``deactivate`` fail (the
-daemon reports it and exits 4): its watchdog is then what turns it off.
+``deactivate`` sends *exit motor mode* at once, always (reopening the bus once if it was lost),
+up to three times until every drive answered it. A drive answers every frame, in order, and the
+Katz reply does not say whether the motor is on: an answer to a mode frame is a reply beyond
+every reply the drive could still owe for earlier frames — including those the tick gave up on,
+until ``exchange_timeout`` (the bound on a reply's lateness) has passed — never a late reply to
+an earlier command (docs/can_joints.md). A Damiao answer must also say the motor is off. A drive
+not confirmed so makes ``deactivate`` fail (the daemon reports it and exits 4): its watchdog is
+then what turns it off.
 
 Per tick: the drives answer only commands. ``write()`` sends all commands and returns;
 ``read()`` of the next tick collects the answers — usually already there, a period later — and
@@ -72,6 +74,10 @@ from rtctl.hal import Lifecycle, Status
 EXIT_ATTEMPTS = 3  # a lost (or corrupted) answer to exit motor mode must not leave a motor on
 
 
+def _hex(drive_ids) -> str:
+    return ", ".join(f"{i:#x}" for i in drive_ids)
+
+
 class MitCanJointGroup(CanJointGroup):
     """The MIT drives of one CAN bus."""
 
@@ -113,6 +119,10 @@ class MitCanJointGroup(CanJointGroup):
         self._replies_by = 0.0  # time.monotonic() by which they are due
         self._sent = 0
         self._replied = [0] * n
+        # replies a drive sent on this link, plus those lost for sure (≤ _sent): unlike _replied,
+        # never credited with what the tick gave up on while it may still come (see _exchange)
+        self._heard = [0] * n
+        self._sent_at = self._gave_up_at = -float("inf")  # time.monotonic() of the last send, the last give-up
         self._tmp = np.zeros(n)
         self._p, self._v, self._tau, self._zero = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
 
@@ -184,13 +194,7 @@ class MitCanJointGroup(CanJointGroup):
     def _on_deactivate(self) -> None:
         if self.bus is None:
             self._open()  # one attempt: the drives must hear exit motor mode if the link allows
-        for attempt in range(EXIT_ATTEMPTS):  # exit is idempotent: repeat until every drive confirms
-            try:
-                self._exchange(Special.EXIT_MOTOR_MODE, "exit motor mode")
-                return
-            except HardwareError:
-                if attempt == EXIT_ATTEMPTS - 1 or self.bus is None:
-                    raise
+        self._exchange(Special.EXIT_MOTOR_MODE, "exit motor mode", EXIT_ATTEMPTS)
 
     def _on_close(self) -> None:
         self._close_bus()
@@ -198,6 +202,7 @@ class MitCanJointGroup(CanJointGroup):
     def _open(self) -> None:
         super()._open()
         self._forget_owed()  # a new link: nothing sent on the old one will be answered on it
+        self._heard = [self._sent] * len(self._heard)
 
     def set_zero(self) -> None:
         """Make every drive's present position its zero (FE). Refused while active: the
@@ -277,7 +282,8 @@ class MitCanJointGroup(CanJointGroup):
                 bus.send(m)
             self._sent += 1
             self._last_sent = self._clock()
-            self._replies_by = time.monotonic() + self.reply_timeout
+            self._sent_at = time.monotonic()
+            self._replies_by = self._sent_at + self.reply_timeout
             self._after_send()
         except Exception as e:
             return self._lost(e)
@@ -307,9 +313,11 @@ class MitCanJointGroup(CanJointGroup):
         return 0
 
     def _forget_owed(self) -> None:
+        """Give up on the replies owed (for the tick's collection; ``_heard`` still awaits them)."""
         replied = self._replied
         for row in range(len(replied)):
             replied[row] = self._sent
+        self._gave_up_at = time.monotonic()
 
     def _take(self, msg) -> int:
         """Decode one received frame into the reply table; its row, or −1 when ignored."""
@@ -328,44 +336,74 @@ class MitCanJointGroup(CanJointGroup):
         self._got[row] = True
         if self._replied[row] < self._sent:  # (a reply owed nothing credits no later frame)
             self._replied[row] += 1
+        if self._heard[row] < self._sent:
+            self._heard[row] += 1
         return row
 
     def _send_special(self, kind: Special) -> None:
         try:
-            for m in self._specials[kind]:
-                self.bus.send(m)
-            self._sent += 1
-            self._after_send()
+            self._send_to_all(self._specials[kind])
         except Exception as e:
             self.last_error = f"{kind.name.lower()}: {type(e).__name__}: {e}"
 
-    def _exchange(self, kind: Special, what: str) -> None:
-        """Send ``kind`` to every drive and require every answer: each drive's last reply owed
-        (HardwareError naming the silent ones)."""
+    def _send_to_all(self, messages) -> None:
+        for m in messages:
+            self.bus.send(m)
+        self._sent += 1
+        self._sent_at = time.monotonic()
+        self._after_send()
+
+    def _exchange(self, kind: Special, what: str, attempts: int = 1) -> None:
+        """Send ``kind`` to every drive — again, up to ``attempts`` frames, while one has not
+        answered — and require every answer (HardwareError naming the others). Replies carry no
+        sequence number: a drive has answered once it sent more replies than it could still owe
+        for the frames before the first — every reply not heard, also those the tick gave up on,
+        until ``exchange_timeout`` (the bound on a reply's lateness) passed since they were sent;
+        then the missing ones are lost (docs/can_joints.md). A Damiao reply saying the motor is
+        on answers no exit."""
         if self.bus is None:
             raise HardwareError(f"{self.name}: {what}: the bus is not open")
+        heard, answered, motor_on = self._heard, self._cycle, set()
+        if time.monotonic() - self._gave_up_at > self.exchange_timeout:  # given up on long enough ago: lost
+            self._heard = heard = [max(h, r) for h, r in zip(heard, self._replied)]
+        before, sent_before_at, exiting = self._sent, self._sent_at, kind is Special.EXIT_MOTOR_MODE
+
+        def take(msg) -> int:
+            row = self._take(msg)
+            if row < 0 or answered[row] or heard[row] <= before:
+                return 0
+            if exiting and mit.reply_says_motor_on(msg.data, self._models[row]):
+                motor_on.add(self.joints[row].drive_id)
+                return 0
+            answered[row] = True
+            return 1
+
+        answered.fill(False)
+        self._cycle_t = None  # the answers awaited now are this frame's, not a tick's
         try:
-            for m in self._specials[kind]:
-                self.bus.send(m)
-            self._sent += 1
-            self._cycle_t = None  # the answers awaited now are this frame's, not a tick's
-            self._after_send()
-            self._cycle.fill(False)
-            self._receive(len(self._cycle), self.exchange_timeout, self._take_answer)
+            for attempt in range(attempts):
+                if attempt and time.monotonic() - sent_before_at >= self.exchange_timeout:
+                    for row in range(len(heard)):  # the earlier frames' replies not heard by now are lost
+                        heard[row] = max(heard[row], before)
+                self._send_to_all(self._specials[kind])
+                if not self._receive(len(answered) - int(answered.sum()), self.exchange_timeout, take):
+                    break
         except Exception as e:
             self._close_bus()
             raise HardwareError(f"{self.name}: {what}: bus error: {type(e).__name__}: {e}") from e
         self._stamp = self._clock()
-        silent = [j.drive_id for j, ok in zip(self.joints, self._cycle) if not ok]
-        if silent:
+        missing = [j.drive_id for j, ok in zip(self.joints, answered) if not ok]
+        if missing:
             self._forget_owed()  # lost, or later than any answer awaited: the next exchange starts afresh
-            raise HardwareError(
-                f"{self.name}: drive(s) {', '.join(f'{i:#x}' for i in silent)} did not answer {what} within "
-                f"{self.exchange_timeout:g} s on {self.bus_options.label} (power, ids, bitrate, termination?)")
+            silent = [i for i in missing if i not in motor_on]
+            why = [f"drive(s) {_hex(silent)} did not answer {what} within {self.exchange_timeout:g} s ({attempts} "
+                   f"frame(s)) on {self.bus_options.label} (power, ids, bitrate, termination?)"] if silent else []
+            why += [f"drive(s) {_hex(sorted(motor_on))} answered {what} with the motor on"] if motor_on else []
+            raise HardwareError(f"{self.name}: " + "; ".join(why))
 
     # -- bookkeeping ---------------------------------------------------------------------
     def _stale_ids(self) -> str:
-        return ", ".join(f"{j.drive_id:#x}" for j, k in zip(self.joints, self._stale) if k >= self.stale_limit)
+        return _hex(j.drive_id for j, k in zip(self.joints, self._stale) if k >= self.stale_limit)
 
     def diagnostics(self) -> dict:
         d = super().diagnostics()

@@ -287,6 +287,12 @@ def unpack_reply_into(data, model: MitDriveModel, out, row: int) -> None:
         r[REPLY_ERROR] = state if state >= 8 else 0  # 0/1 are disabled/enabled, not errors
 
 
+def reply_says_motor_on(data, model: MitDriveModel) -> bool:
+    """True when the reply says the drive's motor is on — only the Damiao format says (state 1
+    in b0's high nibble; 0 is off, 8 and above an error, the motor off); False for the others."""
+    return model.reply_format is ReplyFormat.DAMIAO and data[0] >> 4 == 1
+
+
 def reply_half_steps(model: MitDriveModel) -> tuple[float, float, float]:
     """Half a step of the reply's position, velocity and effort fields: what a host adds to the
     firmware's decoding to get the centre of the interval the drive's value lay in.

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from drivers.can_joints import MitCanJointGroup
-from drivers.protocols.mit import DRIVE_MODELS, KATZ
+from drivers.protocols.mit import DRIVE_MODELS, KATZ, Special, special_kind
 from drivers.protocols.mit_layout import MitJoint
 from hil_sim.mit_drive import MitDrive, MitDriveBus, pump
 from lockstep_rig import LockStep, SlowWire, rigs, silence_second_drive, virtual_bus
@@ -324,6 +324,90 @@ def test_a_reply_lost_once_costs_one_more_exit_not_a_failed_one(slow_rig):
     r.deactivate()
     assert not any(d.enabled for d in r.drive_list) and r.last_error is None
     assert [d.counters.specials for d in r.drive_list] == [4, 4]  # the first exit's answer was taken for the lost one
+
+
+class ExitLostRig(SlowRig):
+    """While ``lose_exits``, every exit motor mode frame is lost on the wire: those drives hear
+    the rest, in order, and answer it."""
+
+    lose_exits = False
+
+    def _after_send(self):
+        if self.hold:
+            return
+        out = []
+        while (msg := self.peer.recv(0.0)) is not None:
+            if not (self.lose_exits and special_kind(msg.data) is Special.EXIT_MOTOR_MODE):
+                self.drives.receive(msg.arbitration_id, msg.data, self.now, out)
+        for arbitration_id, payload in out:
+            self.peer.send(can.Message(arbitration_id=arbitration_id, data=payload, is_extended_id=False))
+
+
+@pytest.fixture
+def exit_rig():
+    # replies may be late by up to exchange_timeout (real time): long enough for the test's own steps
+    yield from rigs(lambda model=KATZ: ExitLostRig([MitJoint("a", 1, model), MitJoint("b", 2, model)],
+                                                   exchange_timeout=0.05))
+
+
+def stall_the_last_two_ticks(r):
+    """A tick's replies held back: its read misses them, the next write gives up on them (late
+    or lost) and sends its own commands, whose replies are held back too — both are on their
+    way when deactivate begins, and arrive just after its first exit frame went out."""
+    r.activate()
+    r.tick()
+    r.hold = True
+    r.tick()
+    assert r.tick()[0] == Status.OK and not r.state.fresh.any() and r.counters["missing_replies"] == 2
+    r.hold = False
+
+
+def test_a_late_reply_given_up_on_is_not_the_answer_to_exit_motor_mode(exit_rig):
+    """The defect: the reply the last write gave up on arrived after the exit frame and counted
+    as the answer owed for the last commands, whose own reply then counted as the answer to exit
+    motor mode — "confirmed off" while no drive had heard it."""
+    r = exit_rig()
+    stall_the_last_two_ticks(r)
+    r.lose_exits = True
+    assert r.deactivate() is False
+    assert all(d.enabled and d.counters.specials == 2 for d in r.drive_list)  # configure's exit, enter
+    assert "0x1, 0x2 did not answer exit motor mode" in r.last_error
+
+
+def test_exit_motor_mode_is_confirmed_by_the_answer_after_replies_given_up_on(exit_rig):
+    r = exit_rig()
+    stall_the_last_two_ticks(r)
+    assert r.deactivate() is True and r.last_error is None
+    assert not any(d.enabled for d in r.drive_list)
+    assert [d.counters.specials for d in r.drive_list] == [3, 3]  # one exit: its answer came third
+
+
+@pytest.mark.parametrize("lost_before_s, exits", [(0.0, 2), (0.1, 1)])
+def test_a_lost_reply_costs_a_second_exit_only_within_the_lateness_bound(exit_rig, lost_before_s, exits):
+    # drive 2's reply lost for good: within exchange_timeout (0.05 s) it may still come, so the
+    # answer to the first exit cannot be told from it — a second exit, once the bound passed;
+    # lost longer ago than that, it is no longer awaited
+    r = exit_rig()
+    r.activate()
+    r.drive_list[1].faults.drop_rate = 1.0
+    r.tick()
+    r.drive_list[1].faults.drop_rate = 0.0
+    r.tick()  # gives up on it
+    time.sleep(lost_before_s)
+    assert r.deactivate() is True and not any(d.enabled for d in r.drive_list)
+    assert [d.counters.specials for d in r.drive_list] == [2 + exits] * 2
+
+
+def test_a_damiao_drive_answering_exit_with_its_motor_on_is_not_confirmed_off(exit_rig):
+    # the Damiao reply says whether the motor is on: an answer that says on is no confirmation
+    r = exit_rig(DRIVE_MODELS["dm4310"])
+    r.activate()
+    r.tick()
+    stuck = r.drive_list[1]
+    stuck._special = lambda kind, now: None  # it answers every mode frame and ignores it
+    assert r.deactivate() is False
+    assert not r.drive_list[0].enabled and stuck.enabled and stuck.counters.specials == 2 + 3
+    assert "0x2 answered exit motor mode with the motor on" in r.last_error
 
 
 def test_torque_mode_zeroes_the_targets_as_well_as_the_gains(rig):

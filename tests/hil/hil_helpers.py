@@ -28,6 +28,15 @@ CONFIGS = ROOT / "configs"
 STALL_TOLERANT = {"drive_timeout": 0.25, "stale_limit": 50, "stale_ticks": 50}
 
 
+def check_turned_off_by_exit(sim, sim_exit) -> None:
+    """Every drive ended out of motor mode because it heard exit motor mode, not by its own
+    watchdog: a drive whose exit frames were lost (the daemon closed its link on a late reply
+    taken for the answer) passes "not enabled" once its watchdog fired before hil-sim stopped."""
+    assert not any(d["enabled"] for d in sim_exit["drives"]), "a drive was left in motor mode"
+    last = {e["drive"]: (e["event"], e["cause"]) for e in sim.events if e.get("event") in ("motor_on", "motor_off")}
+    assert last and all(last.get(d["drive"]) == ("motor_off", "command") for d in sim_exit["drives"]), last
+
+
 class HilSim:
     """``hil-sim CONFIG ARGS…`` in its own process; ``info`` is its first JSON line."""
 

@@ -10,7 +10,7 @@ periods) and is retried as a stall. Over slcan (250 Hz) all 20 stayed within 31.
 import numpy as np
 import pytest
 
-from hil_helpers import STALL_TOLERANT, run, unless_stalled, variant
+from hil_helpers import STALL_TOLERANT, check_turned_off_by_exit, run, unless_stalled, variant
 
 pytestmark = pytest.mark.hil
 
@@ -19,10 +19,10 @@ SLCAN_MAX, SLCAN_RMS = 3 * 0.0315, 3 * 0.0068
 SLCAN_HOLD_S, SLCAN_HOLD_MAX = 20.0, 3 * 0.0053  # s, rad: 3x the last 5 s of a 20 s hold (2026-12-03)
 
 
-def check_complete(summary, telemetry, sim_exit):
+def check_complete(summary, telemetry, sim, sim_exit):
     assert telemetry.rows == summary["timing"]["ticks"] == summary["telemetry"]["rows"]
     assert all(dev["lifecycle"] == "closed" for dev in summary["devices"].values())
-    assert not any(d["enabled"] for d in sim_exit["drives"]), "a drive was left in motor mode"
+    check_turned_off_by_exit(sim, sim_exit)
 
 
 def test_puma560_over_socketcand_tracks_its_trajectory(tmp_path, hil_sim):
@@ -31,7 +31,7 @@ def test_puma560_over_socketcand_tracks_its_trajectory(tmp_path, hil_sim):
     assert sim.info["transport"] == "socketcand" and sim.info["channels"] == ["can0"]
     code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=4.0)
     sim_exit = sim.stop()
-    check_complete(summary, telemetry, sim_exit)
+    check_complete(summary, telemetry, sim, sim_exit)
     with unless_stalled(summary):
         assert code == 0, (summary["stop_reason"], summary["timing"]["overruns"])
     arm = summary["devices"]["arm"]["counters"]
@@ -68,7 +68,7 @@ def test_three_joints_over_slcan_track_their_trajectory(tmp_path, hil_sim):
     assert sim.info["transport"] == "slcan" and sim.info["env"]["HIL_SIM_TTY"] == sim.info["tty"]
     code, summary, telemetry, err = run(config, tmp_path, sim.env(), duration=4.0 + SLCAN_HOLD_S)
     sim_exit = sim.stop()
-    check_complete(summary, telemetry, sim_exit)
+    check_complete(summary, telemetry, sim, sim_exit)
     tracking = summary["tracking_error_rad"]
     check_hold(telemetry, summary)
     print(f"slcan tracking: max {tracking['max_all']:.4f} rad, rms {tracking['rms_all']:.4f} rad, "
