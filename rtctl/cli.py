@@ -47,11 +47,21 @@ _FINITE = _number("a finite number", lambda x: True)
 _RATE = _number("a rate in Hz in [1, 100000]", lambda x: 1 <= x <= 1e5)
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("rtctl")
+    except PackageNotFoundError:  # (run from a source tree that is not installed)
+        return "unknown (not installed)"
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="rtctl", description="Real-time control runtime for robot joints. Documentation: docs/index.md "
                                  "in the source tree.",
-        epilog=__doc__.split("\n", 2)[2], formatter_class=argparse.RawDescriptionHelpFormatter)
+        epilog=__doc__.split("\n", 2)[2].replace("``", ""), formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--version", action="version", version=f"rtctl {_version()}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     add_parser = sub.add_parser
 
@@ -123,7 +133,8 @@ def _parser() -> argparse.ArgumentParser:
                                  "(`reset` re-enables the drives, `stop` ends it)"),
                        ("reset", "clear latched faults whose cause is gone")):
         s = sub.add_parser(name, help=text)
-        s.add_argument("--socket", metavar="PATH", help="control socket path (default: $XDG_RUNTIME_DIR/rtctl.sock)")
+        s.add_argument("--socket", metavar="PATH", help="control socket path (default: $XDG_RUNTIME_DIR/rtctl.sock, or /tmp/rtctl-UID.sock "
+                                                            "without XDG_RUNTIME_DIR)")
     move = sub.add_parser("move", help="move to joint positions along a smooth trajectory")
     move.add_argument("q", type=_FINITE, nargs="+", help="target joint positions")
     move.add_argument("--deg", action="store_true", help="positions in degrees (revolute joints)")
@@ -151,8 +162,9 @@ def _parser() -> argparse.ArgumentParser:
     ident.add_argument("--nb", type=int, default=2, help="input order: b0 … b_nb (default 2)")
     ident.add_argument("--d", type=int, default=1, help="dead time in samples (default 1)")
     ident.add_argument("--lam", type=float, default=0.98, help="forgetting factor λ of the noise statistics, in (0, 1)")
-    ident.add_argument("--adapt", nargs="*", default=["r", "R"], choices=("r", "R", "q", "Q"),
-                       help="switched-on adaptations (default: r R)")
+    ident.add_argument("--adapt", nargs="*", default=[], choices=("r", "R", "q", "Q"),
+                       help="switched-on adaptations of the noise statistics (default: none — a least-squares "
+                            "fit; adapting them from θ̂(0) = 0 on closed-loop data lets them absorb the model)")
     ident.add_argument("--p0", type=float, default=1e3, help="P(0) = p0·I, θ̂(0) = 0 (default 1e3)")
     ident.add_argument("--r0", type=float, default=1e-6, help="R̂(0) (default 1e-6)")
     ident.add_argument("--json", metavar="PATH", help="also write the result as JSON")
@@ -262,8 +274,7 @@ def _dispatch(args) -> int:
     if args.command == "plot":
         from rtctl.plot import plot_run
 
-        plot_run(args.path, args.output)
-        print(args.output)
+        print(plot_run(args.path, args.output))
         return EXIT_OK
     if args.command == "grab":
         from rtctl.vision.grab import grab
@@ -274,6 +285,8 @@ def _dispatch(args) -> int:
 
         counts = export_mcap(args.path, args.mcap)
         print(f"{args.mcap}: " + ", ".join(f"{topic} {n}" for topic, n in counts.items()))
+        if counts.incomplete:
+            print(f"note: {counts.incomplete}")
         return EXIT_OK
     if args.command == "identify":
         from rtctl.estimation.identify import main as identify

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from rtctl import jsonout
-from rtctl.cli import EXIT_OK, print_json
+from rtctl.cli import EXIT_CONFIG, EXIT_OK, print_json
 
 SHIPPED_PUMA = Path(__file__).resolve().parent.parent / "configs" / "robots" / "puma560.toml"
 
@@ -126,8 +126,11 @@ def control_request(args) -> int:
         fields = {"q": list(args.q), "deg": args.deg}
         if args.duration is not None:
             fields["duration"] = args.duration
-    reply = request(path, args.command, **fields)
+    # a move is answered once it is planned and has started: planning may take seconds
+    reply = request(path, args.command, timeout=120.0 if args.command == "move" else 5.0, **fields)
     print_json(reply)
+    if reply.get("invalid"):  # the request itself was wrong (e.g. the number of joints)
+        return EXIT_CONFIG
     return EXIT_OK if reply.get("ok", False) else 3
 
 

@@ -328,8 +328,8 @@ class ControlServer:
     def _answer(self, body: bytes) -> dict:
         try:
             request = validate(decode(body), self.n_joints)
-        except (InvalidRequest, ValueError) as exc:
-            return {"ok": False, "error": str(exc)}
+        except (InvalidRequest, ValueError) as exc:  # the request's shape: the client's to correct
+            return {"ok": False, "error": str(exc), "invalid": True}
         try:
             reply = self.handler(request)
         except RtctlError as exc:

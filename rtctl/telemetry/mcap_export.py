@@ -67,7 +67,13 @@ def _writer_class():
     return Writer
 
 
-def export_mcap(path, out) -> dict:
+class Counts(dict):
+    """{topic: messages}, and ``incomplete``: why the telemetry file was not a finished run's (or None)."""
+
+    incomplete: str | None = None
+
+
+def export_mcap(path, out) -> Counts:
     """Write the telemetry file ``path`` as the MCAP file ``out`` (its folder is created);
     return {topic: messages}."""
     from rtctl.outputs import output_path
@@ -131,7 +137,9 @@ def export_mcap(path, out) -> dict:
             "rate_hz": str(tel.meta.get("rate_hz", "")), "joints": jsonout.dumps(names),
             "summary": jsonout.dumps(summary) if summary is not None else "null"})
         writer.finish()
-    return {**{topic: tel.rows for topic in channels}, "/events": len(events)}
+    counts = Counts({**{topic: tel.rows for topic in channels}, "/events": len(events)})
+    counts.incomplete = tel.incomplete
+    return counts
 
 
 def _channel(writer, topic: str, schema: dict) -> int:
