@@ -70,7 +70,7 @@ class CanJointGroup(JointGroup):
         if now - self._last_sent > self.drive_timeout and self._drives_off is None:
             self._drives_off = (f"no command for {1e3 * (now - self._last_sent):.0f} ms, longer than the drives' "
                                 f"{1e3 * self.drive_timeout:g} ms {watchdog}")
-            self._event("drives_off", self._drives_off)
+            self._report("drives_off", self._drives_off)  # the cause of the DEACTIVATE that follows
         return True
 
     def _answered(self, t: float, missing: int, answered) -> None:
@@ -189,6 +189,13 @@ class CanJointGroup(JointGroup):
         """A fault state's first tick: remember it as the last error and log it."""
         self.last_error = reason
         self._event(kind, reason, **fields)
+
+    def stale_cause(self) -> str | None:
+        silent = [name for name, ticks in zip(self.joint_names, self._stale) if ticks]
+        if not silent:
+            return None
+        return (f"no answer from the drive(s) of {', '.join(silent)} on {self.bus_options.label} for "
+                f"{int(self._stale.max())} tick(s)")
 
     def diagnostics(self) -> dict:
         d = super().diagnostics()

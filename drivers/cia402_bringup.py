@@ -24,6 +24,7 @@ import contextlib
 import math
 
 import canopen
+from canopen.objectdictionary import ObjectDictionaryError
 from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
 from drivers.protocols import cia402 as c
@@ -92,6 +93,8 @@ def configure_drive(node, joint, *, heartbeat_ms: int, deadline_ms: int, max_tor
         raise HardwareError(f"{where}: SDO refused: {e}") from e
     except SdoCommunicationError as e:
         raise HardwareError(f"{where}: no SDO answer ({e}): power, node id, bitrate, termination?") from e
+    except ObjectDictionaryError as e:  # an answer of the wrong size for its object
+        raise HardwareError(f"{where}: a malformed SDO answer ({e})") from e
 
 
 def _read(node, index: int, subindex: int | None = None) -> int:

@@ -25,7 +25,8 @@ from __future__ import annotations
 import sys
 from multiprocessing import shared_memory
 
-from drivers.protocols.framegrabber import GrabberMemory, HostFrameGrabber, HostPort, warm_up as warm_up_protocol
+from drivers.protocols.framegrabber import GrabberMemory
+from drivers.protocols.framegrabber_host import HostFrameGrabber, HostPort, warm_up as warm_up_protocol
 from rtctl.errors import HardwareError, ProtocolError
 from rtctl.hal.framegrabber import GrabberSettings
 from rtctl.tomltable import Table, expand_env

@@ -12,10 +12,16 @@ Per tick: ``write()`` sends the command frame (the actions) and waits, up to the
 the sensor frame the board sends back; ``read()`` of the next tick publishes it. A tick with
 no new frame marks the joints not fresh, and the safety stage's ``stale_ticks`` in a row is a
 fault: the loop locks both joints (a silent board → safe state within that many ticks; the
-board's own watchdog locks them too when our commands stop). Lost, garbled and foreign bytes
-are counted (:class:`~drivers.protocols.leg_board.Decoder`); a closed or failing port is an
-ERROR. ``configure`` opens the port and needs one sensor frame (states readable);
-``deactivate`` sends lock commands until the board reports both joints locked (else it fails).
+board's own watchdog locks them too when our commands stop). A frame whose sequence number
+does not advance (the same frame again, or an older one) is no new frame: a link that replays
+frames goes stale like a silent one. Lost, garbled, foreign and refused frames are counted
+(:class:`~drivers.protocols.leg_board.Decoder`); a closed or failing port is an ERROR. While
+active, the board's status is checked every tick: its watchdog's lock (or a status bit the
+protocol does not define) is an ERROR naming it. ``configure`` opens the port and needs one
+sensor frame (states readable); ``activate`` needs a frame whose status shows the watchdog's
+lock released (the board locks the joints whenever our commands pause, as between configure
+and activate); ``deactivate`` sends lock commands until the board reports both joints locked
+(else it fails).
 """
 from __future__ import annotations
 
@@ -25,7 +31,7 @@ import serial
 
 from drivers.protocols import leg_board as proto
 from rtctl.errors import HardwareError
-from rtctl.hal import Status
+from rtctl.hal import Lifecycle, Status
 from rtctl.hal.leg_board import LegBoard
 from rtctl.tomltable import expand_env
 
@@ -45,6 +51,7 @@ class SerialLegBoard(LegBoard):
         self._frame = bytearray(proto.COMMAND_LENGTH)
         self._seq = 0
         self._published = 0  # decoder frame count at the last read
+        self._reported_status = -1  # the faulty status last_error describes (built once per episode)
         self.counters = {"commands": 0, "late_replies": 0}
 
     @classmethod
@@ -73,6 +80,19 @@ class SerialLegBoard(LegBoard):
             raise HardwareError(f"{self.name}: no sensor frame from the board on {self.url} "
                                 f"within {self.exchange_timeout} s ({self.decoder.counters})")
 
+    def _on_activate(self) -> None:
+        """Send lock commands until the board reports its watchdog's lock released: from then on
+        a WATCHDOG bit means our commands stopped reaching it."""
+        self.safe_state()
+        deadline = time.monotonic() + self.exchange_timeout
+        while not (self._exchange(max(0.0, deadline - time.monotonic()))
+                   and not self.decoder.status & proto.STATUS_FAULTS):
+            if time.monotonic() >= deadline:
+                raise HardwareError(f"{self.name}: the board on {self.url} still reports status "
+                                    f"{self.decoder.status:#04x} (its watchdog's lock) after "
+                                    f"{self.exchange_timeout} s of commands")
+        self._reported_status = -1
+
     def _on_deactivate(self) -> None:
         """Lock both joints until a sensor frame reports both locked (its status: the actions
         the board applies; a late frame from before says otherwise)."""
@@ -94,12 +114,28 @@ class SerialLegBoard(LegBoard):
     # -- every tick ----------------------------------------------------------------------
     def _read(self, t: float) -> Status:
         self._collect(0.0)  # whatever else arrived since write()
-        fresh = self.decoder.counters["frames"] != self._published
-        self._published = self.decoder.counters["frames"]
+        decoder = self.decoder
+        fresh = decoder.counters["frames"] != self._published
+        self._published = decoder.counters["frames"]
         if fresh:
-            self.channels[:] = self.decoder.channels
+            self.channels[:] = decoder.channels
         self.publish(t, fresh)
+        if decoder.status & proto.STATUS_FAULTS and self.lifecycle is Lifecycle.ACTIVE:
+            return self._board_fault(decoder.status)
+        self._reported_status = -1
         return Status.OK
+
+    def _board_fault(self, status: int) -> Status:
+        """The board says it is not under our command: ERROR, its cause described once per episode."""
+        if status != self._reported_status:
+            self._reported_status = status
+            if status & proto.WATCHDOG:
+                self.last_error = (f"the board's watchdog locked both joints (status {status:#04x}: our commands "
+                                   f"stopped reaching it)")
+            else:
+                undefined = status & proto.STATUS_FAULTS & ~proto.WATCHDOG
+                self.last_error = f"the board reports status {status:#04x}: bits {undefined:#04x} are undefined"
+        return Status.ERROR
 
     def _write(self, t: float) -> Status:
         if not self._exchange(self.reply_timeout):
@@ -135,6 +171,12 @@ class SerialLegBoard(LegBoard):
             port.timeout = 0
             if data:
                 decoder.feed(data)
+
+    def stale_cause(self) -> str:
+        c = self.decoder.counters
+        return (f"no new sensor frame from the board on {self.url} (the last taken: seq {self.decoder.seq}; so far "
+                f"{c['repeated_frames']} repeated and {c['out_of_order']} out-of-order frames refused, "
+                f"{c['crc_errors']} CRC errors, {self.counters['late_replies']} late replies)")
 
     def diagnostics(self) -> dict:
         return {**super().diagnostics(), "port": self.url, **self.counters, **self.decoder.counters}

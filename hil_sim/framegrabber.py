@@ -20,8 +20,8 @@ import time
 
 import numpy as np
 
-from drivers.protocols.framegrabber import (CLOCK_LOOP, CLOCK_MONOTONIC, GrabberMemory, HostFrameGrabber, HostPort,
-                                            buffer_bytes, warm_up as warm_up_protocol)
+from drivers.protocols.framegrabber import CLOCK_LOOP, CLOCK_MONOTONIC, GrabberMemory, buffer_bytes
+from drivers.protocols.framegrabber_host import HostFrameGrabber, HostPort, warm_up as warm_up_protocol
 from rtctl.hal.framegrabber import FIELD_PERIOD_S, GrabberSettings
 from rtctl.tomltable import ENV_TEMPLATE, Table
 from rtctl.vision.pixels import warm_up as warm_up_pixels

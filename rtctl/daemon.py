@@ -105,7 +105,7 @@ class Daemon:
         self._check_trajectory()
         self.guard = guarded.runtime_guard(cfg, self.limits)
         self.safety = SafetyStage.from_model(
-            self.model, cfg.safety, device_joints=runtime.device_joints,
+            self.model, cfg.safety, device_joints=runtime.device_joints, devices=runtime.devices,
             gravity=lambda q: gravity_of(self.model, q), guard=self.guard)
         # a signal's stop request cuts the sleep to the next deadline short: SIGTERM is answered
         # at once, however long the period

@@ -4,7 +4,9 @@
 
 Joint devices are read first, then the other devices (framegrabber, I/O board …). A device
 that fails (ERROR on read or on the previous write) takes the controllers that use it out of
-this tick: they are not updated and the safety stage engages the fallback, naming the device.
+this tick: they are not updated and the safety stage engages the fallback; the fault's reason
+names the device and the cause its driver saw (:func:`~rtctl.safety.faults.device_reason`,
+built once per failure, when the device starts failing).
 While the safety stage is in charge, every device is put in its own safe state before the
 write (``Hardware.safe_state``: a leg board locks its joints), in the tick the fault is found.
 
@@ -19,6 +21,7 @@ import numpy as np
 
 from rtctl.hal import Status
 from rtctl.safety import Verdict
+from rtctl.safety.faults import device_reason
 from rtctl.timing import READ, RECORD, SAFETY, UPDATE, WRITE
 
 
@@ -37,7 +40,7 @@ class Tick:
         self.all_devices = runtime.all_devices
         self.io_statuses = np.zeros(len(self.io), dtype=np.int64)
         self.io_write_statuses = np.zeros(len(self.io), dtype=np.int64)
-        self._io_errors = [f"device {d.name} failed" for d in self.io]  # built once: no allocation per tick
+        self._io_reasons: list[str | None] = [None] * len(self.io)  # while a device fails: its fault's reason
         self.verdict = Verdict.OK
         self.controller_error: str | None = None
         self._e = np.zeros(n)
@@ -58,18 +61,23 @@ class Tick:
                 self._gather(i, dev)
         state.stamp = t
         controller_ok = True
+        device_error = None
         for i, dev in enumerate(self.io):
-            self.io_statuses[i] = max(dev.read(t), self.io_write_statuses[i])
+            status = max(dev.read(t), self.io_write_statuses[i])
+            self.io_statuses[i] = status
             self.io_write_statuses[i] = Status.OK
-            if self.io_statuses[i] != Status.OK:
-                controller_ok = False
-                self.controller_error = self._io_errors[i]
+            if status != Status.OK:
+                if self._io_reasons[i] is None:  # (the fault path: built once per failure)
+                    self._io_reasons[i] = device_reason(dev, status)
+                device_error = self._io_reasons[i]
+            elif self._io_reasons[i] is not None:
+                self._io_reasons[i] = None
         ticker.mark(READ)
 
         if self.trajectory is not None:
             self.trajectory.sample(t, ref.q, ref.qd, ref.qdd)
         for c in rt.controllers:
-            if not controller_ok and self._uses_failed_device(c):
+            if device_error is not None and self._uses_failed_device(c):
                 continue
             if ticker.due(c.divisor):
                 try:
@@ -80,7 +88,8 @@ class Tick:
         ticker.mark(UPDATE)
 
         self.verdict = self.safety.check(t, ticker.tick, state, self.statuses, command, controller_ok,
-                                         self.controller_error, None if self.trajectory is None else ref.q)
+                                         self.controller_error, None if self.trajectory is None else ref.q,
+                                         device_error)
         if self.verdict != Verdict.OK:
             for dev in self.all_devices:
                 dev.safe_state()
@@ -106,7 +115,6 @@ class Tick:
     def _uses_failed_device(self, controller) -> bool:
         for i, users in enumerate(self.rt.io_users):
             if self.io_statuses[i] != Status.OK and controller in users:
-                self.controller_error = f"{self._io_errors[i]}: {self.io[i].last_error}"
                 return True
         return False
 

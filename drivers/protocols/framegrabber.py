@@ -23,19 +23,18 @@ that frame. Whichever of the two comes second sees the other (Dekker's argument)
 is never read while it is written, and neither side ever waits: with ≥ 4 slots there is
 always a free one beside the published, the held and the claimed. A host slower than the
 device takes the newest frame and counts the ones it skipped: ``dropped = written − read``.
+
+
+The host's end, which checks every word it reads, is :mod:`drivers.protocols.framegrabber_host`.
 """
 from __future__ import annotations
-
-import time
 
 import numpy as np
 from numba import njit, types
 from numba.extending import intrinsic
 
 from rtctl.errors import ProtocolError
-from rtctl.hal.framegrabber import (FIELD_PERIOD_S, MEMORY_BYTES, SCANS, Frame, FrameGrabber, GrabberSettings,
-                                   LoopClock)
-from rtctl.vision.pixels import unpack
+from rtctl.hal.framegrabber import FIELD_PERIOD_S, MEMORY_BYTES, SCANS, GrabberSettings
 
 MAGIC = b"RTCTLFG1"
 VERSION = 1
@@ -47,6 +46,12 @@ IDLE, RUNNING, DONE, FAULT = 0, 1, 2, 3  # device state
 FIELD_NAMES = ("frame", "odd", "even")
 FIELD_CODES = {name: code for code, name in enumerate(FIELD_NAMES)}
 BUSY = -1  # slot_seq while the device writes the slot; 0 = never written
+STATE_NAMES = ("idle", "running", "done", "fault")
+SCAN_FIELDS = {"odd": (1,), "even": (2,), "fields": (1, 2), "frame": (0,)}  # the field codes each scan delivers
+FIELD_NS = round(FIELD_PERIOD_S * 1e9)
+MAX_SKIP = 1 << 20  # frames a device can complete between two polls: far more than any camera does
+MAX_COUNT = 1 << 62  # sequence numbers and generations stay below it (no int64 overflow)
+CAPTURE_SLACK_NS = 1_000_000  # a CLOCK_MONOTONIC stamp may lead the host's "now", read before the claim
 
 # word indices within each section
 L_VERSION, L_SLOTS, L_STRIDE, L_DATA, L_CLOCK, L_FIELD_NS = range(6)
@@ -56,6 +61,10 @@ S_STATE, S_APPLIED, S_ERROR, S_FIELDS, S_HEARTBEAT = range(5)
 W_PUBLISHED, W_WRITTEN, W_SEQ0 = 0, 1, 2
 H_CLAIM, H_HOLD, H_READ, H_DROPPED, H_LAST = range(5)
 F_SEQ, F_CAPTURE, F_FIELD, F_GEN, F_NBYTES, F_REGS = range(6)
+O_LAST, O_READ, O_DROPPED, O_SEQ, O_CAPTURE, O_BAD = range(6)  # the host's private bookkeeping
+IDENT_WORDS = 7  # the magic and L_VERSION … L_FIELD_NS: what the host checks at every poll
+# what _claim returns besides a slot
+NOTHING, RACE, BAD_LAYOUT, BAD_SLOT, BAD_SEQ, SEQ_BACK, SEQ_JUMP, BAD_STATE, DEVICE_FAULT = range(-1, -10, -1)
 _OFFSETS = {"layout": 8, "regs": 128, "status": 256, "writer": 384, "reader": 640}
 _WORDS = {"layout": 15, "regs": 1 + len(REG_NAMES), "status": 16, "writer": 2 + MAX_SLOTS, "reader": 8}
 
@@ -99,31 +108,65 @@ def _publish(writer, slot, seq):
 
 
 @njit(cache=True)
-def _claim(writer, reader):
+def host_claim(ident, expected, status, writer, reader, own, n_slots):
     """Host: hold the newest complete frame if it is newer than the last one → slot, else
-    −1 (nothing new) or −2 (lost a race with the device: try again)."""
+    NOTHING, RACE (lost a race with the device: try again) or an error code (``own[O_BAD]``:
+    the offending value). Every word is checked before it is used as an index or a count."""
+    for i in range(IDENT_WORDS):
+        if ident[i] != expected[i]:
+            own[O_BAD] = i
+            return BAD_LAYOUT
+    state = status[S_STATE]
+    if state < IDLE or state > FAULT:
+        own[O_BAD] = state
+        return BAD_STATE
+    if state == FAULT:
+        own[O_BAD] = status[S_ERROR]
+        return DEVICE_FAULT
     p = writer[W_PUBLISHED]
-    if p < 0:
-        return -1
+    if p == -1:
+        return NOTHING
+    if p < 0 or p >= n_slots:
+        own[O_BAD] = p
+        return BAD_SLOT
     seq = writer[W_SEQ0 + p]
-    last = reader[H_LAST]
-    if seq <= last:
-        return -1
+    last = own[O_LAST]
+    if seq == BUSY or seq == 0 or seq == last:  # being rewritten, abandoned, or the frame we have
+        return NOTHING
+    own[O_BAD] = seq
+    if seq < BUSY:
+        return BAD_SEQ
+    if seq < last:
+        return SEQ_BACK
+    if seq - last > MAX_SKIP:
+        return SEQ_JUMP
     reader[H_CLAIM] = p
     _fence()
     if writer[W_SEQ0 + p] != seq:
         reader[H_CLAIM] = -1
-        return -2
+        return RACE
     reader[H_HOLD] = p  # the previously held slot goes back to the device
     reader[H_CLAIM] = -1
-    reader[H_READ] += 1
-    reader[H_DROPPED] += seq - last - 1
-    reader[H_LAST] = seq
+    own[O_SEQ] = seq
     return p
 
 
 @njit(cache=True)
-def _store(words, index, value):
+def host_commit(own, reader, capture_ns):
+    """Host: the held frame (sequence number ``own[O_SEQ]``) passed its checks: count it, and
+    publish the host's bookkeeping (a copy: the host never reads it back)."""
+    seq = own[O_SEQ]
+    own[O_DROPPED] += seq - own[O_LAST] - 1
+    own[O_READ] += 1
+    own[O_LAST] = seq
+    own[O_CAPTURE] = capture_ns
+    reader[H_READ] = own[O_READ]
+    reader[H_DROPPED] = own[O_DROPPED]
+    reader[H_LAST] = seq
+
+
+@njit(cache=True)
+def store_fenced(words, index, value):
     words[index] = value
     _fence()
 
@@ -151,16 +194,17 @@ class GrabberMemory:
             setattr(self, name, np.ndarray((_WORDS[name],), dtype="<i8", buffer=buffer, offset=offset))
         if create:
             self.layout[[L_VERSION, L_SLOTS, L_STRIDE, L_DATA, L_CLOCK, L_FIELD_NS]] = (
-                VERSION, n_slots, SLOT_HEADER_BYTES + MEMORY_BYTES, MEMORY_BYTES, clock, round(FIELD_PERIOD_S * 1e9))
+                VERSION, n_slots, SLOT_HEADER_BYTES + MEMORY_BYTES, MEMORY_BYTES, clock, FIELD_NS)
             self.writer[:] = 0
             self.writer[W_PUBLISHED] = -1
             self.reader[[H_CLAIM, H_HOLD]] = -1
-        elif self.layout[L_VERSION] != VERSION:
-            raise ProtocolError(f"framegrabber buffer version {self.layout[L_VERSION]}, this end speaks {VERSION}")
+        else:
+            _check_layout(self.layout, raw.size)
         self.n_slots = int(self.layout[L_SLOTS])
         stride = int(self.layout[L_STRIDE])
         if not MIN_SLOTS <= self.n_slots <= MAX_SLOTS or raw.size < HEADER_BYTES + self.n_slots * stride:
             raise ProtocolError(f"framegrabber buffer of {raw.size} bytes does not hold {self.n_slots} slots")
+        self.ident = np.ndarray((IDENT_WORDS,), dtype="<i8", buffer=buffer, offset=0)
         self.clock = int(self.layout[L_CLOCK])
         self.slot_headers = [np.ndarray((F_REGS + len(REG_NAMES),), dtype="<i8", buffer=buffer,
                                         offset=HEADER_BYTES + s * stride) for s in range(self.n_slots)]
@@ -171,6 +215,24 @@ class GrabberMemory:
         """Zero-copy view of a slot's packed pixels, (rows, words_per_row)."""
         dtype = np.dtype(f"<u{settings.word_bits // 8}")
         return self.slot_data[slot][:settings.frame_bytes].view(dtype).reshape(settings.rows, settings.words_per_row)
+
+
+def _check_layout(layout, size: int) -> None:
+    """The device's layout words, before any of them sizes a view (ProtocolError naming the word)."""
+    version, n_slots, stride, data, clock, field_ns = (int(v) for v in layout[:6])
+    if version != VERSION:
+        raise ProtocolError(f"framegrabber buffer version {version}, this end speaks {VERSION}")
+    if not MIN_SLOTS <= n_slots <= MAX_SLOTS:
+        raise ProtocolError(f"framegrabber layout: {n_slots} slots, expected {MIN_SLOTS}..{MAX_SLOTS}")
+    if data != MEMORY_BYTES:
+        raise ProtocolError(f"framegrabber layout: {data} data bytes per slot, expected {MEMORY_BYTES}")
+    if stride < SLOT_HEADER_BYTES + data or stride % 8 or HEADER_BYTES + n_slots * stride > size:
+        raise ProtocolError(f"framegrabber layout: slot stride {stride} (at least {SLOT_HEADER_BYTES + data}, "
+                            f"a multiple of 8, {n_slots} slots within {size} bytes)")
+    if clock not in (CLOCK_MONOTONIC, CLOCK_LOOP):
+        raise ProtocolError(f"framegrabber layout: clock {clock}, expected {CLOCK_MONOTONIC} or {CLOCK_LOOP}")
+    if field_ns != FIELD_NS:
+        raise ProtocolError(f"framegrabber layout: field period {field_ns} ns, expected {FIELD_NS}")
 
 
 def encode(settings: GrabberSettings, trigger: int = 0) -> list[int]:
@@ -185,101 +247,6 @@ def decode(words) -> GrabberSettings:
     scan = SCANS[v[5]] if 0 <= v[5] < len(SCANS) else f"<scan code {v[5]}>"
     return GrabberSettings(density=v[0], window=(v[1], v[2], v[3], v[4]), scan=scan, offset=v[6], gain=v[7],
                            levels=v[8], word_bits=v[9], shots=v[10])
-
-
-class HostPort:
-    """The host's end: program the registers, hold the newest frame and describe it."""
-
-    def __init__(self, memory: GrabberMemory):
-        self.m = memory
-        self._trigger = 0
-        self._settings: dict[int, GrabberSettings] = {}  # register generation → settings (few)
-        self._frames: list[Frame | None] = [None] * memory.n_slots  # one per slot, reused
-        self._gens = [-1] * memory.n_slots  # the generation each slot's frame view was made for
-        self.clock = LoopClock()
-        self.start = int(memory.writer[W_WRITTEN])  # frames before we looked are not dropped
-        r = memory.reader
-        r[[H_CLAIM, H_HOLD]] = -1
-        r[[H_READ, H_DROPPED]] = 0
-        r[H_LAST] = self.start
-
-    def program(self, settings: GrabberSettings) -> None:
-        """Write the registers under their sequence lock; starts a burst in N-shot mode."""
-        regs, self._trigger = self.m.regs, self._trigger + 1
-        gen = int(regs[R_GEN]) + 1 | 1
-        _store(regs, R_GEN, gen)  # odd: being written
-        regs[1:] = encode(settings, self._trigger)
-        _store(regs, R_GEN, gen + 1)
-
-    def claim(self) -> int:
-        """Slot of a new newest frame now held, or −1 (never waits)."""
-        for _ in range(3):  # −2: the device reused the slot while we looked; its newer frame is there
-            slot = _claim(self.m.writer, self.m.reader)
-            if slot != -2:
-                return slot
-        return -1
-
-    def take(self, t: float, now_ns: int) -> Frame | None:
-        """The newest frame if it is new, now held (its words a zero-copy view), else None.
-        Its capture time is put on the loop's clock: the device's own (lock-step), or its
-        CLOCK_MONOTONIC stamp through :class:`~rtctl.hal.framegrabber.LoopClock` (``now_ns``:
-        CLOCK_MONOTONIC at this read of tick time ``t``)."""
-        slot = self.claim()
-        if slot < 0:
-            return None
-        h = self.m.slot_headers[slot]
-        gen = int(h[F_GEN])
-        settings = self._settings.get(gen)
-        if settings is None:
-            settings = self._settings[gen] = decode(h[F_REGS:])
-        capture_ns = int(h[F_CAPTURE])
-        capture = capture_ns * 1e-9 if self.m.clock == CLOCK_LOOP else self.clock.to_loop(t, now_ns, capture_ns)
-        frame = self._frames[slot]
-        if frame is None or self._gens[slot] != gen:
-            frame = self._frames[slot] = Frame(0, 0.0, "frame", settings, self.m.words(slot, settings), unpack)
-            self._gens[slot] = gen
-        frame.seq, frame.capture_time, frame.field = int(h[F_SEQ]), capture, FIELD_NAMES[int(h[F_FIELD])]
-        return frame
-
-    def release(self) -> None:
-        self.m.reader[H_HOLD] = -1
-
-    @property
-    def read(self) -> int:
-        """Frames taken since this end attached."""
-        return int(self.m.reader[H_READ])
-
-    @property
-    def dropped(self) -> int:
-        """Frames the device completed since this end attached that it never took."""
-        return int(self.m.reader[H_DROPPED])
-
-    @property
-    def written(self) -> int:
-        return int(self.m.writer[W_WRITTEN]) - self.start
-
-    def device_status(self) -> dict:
-        s = self.m.status
-        return {"state": ("idle", "running", "done", "fault")[int(s[S_STATE])], "applied_gen": int(s[S_APPLIED]),
-                "settings_errors": int(s[S_ERROR]), "fields": int(s[S_FIELDS]), "written": self.written}
-
-
-class HostFrameGrabber(FrameGrabber):
-    """A framegrabber device read through this protocol: subclasses open ``self.host`` (a
-    :class:`HostPort`) when configured."""
-
-    host: HostPort | None = None
-
-    def _poll(self, t: float) -> bool:
-        frame = self.host.take(t, time.monotonic_ns())
-        if frame is None:
-            return False
-        self._latest = frame
-        self.frames, self.dropped = self.host.read, self.host.dropped
-        return True
-
-    def _send(self, settings: GrabberSettings, t: float) -> None:
-        self.host.program(settings)
 
 
 class DevicePort:
@@ -328,14 +295,3 @@ class DevicePort:
             s[S_APPLIED] = applied_gen
         if error is not None:
             s[S_ERROR] = error
-
-
-def warm_up() -> None:
-    """Load the compiled arbitration kernels before the loop starts."""
-    m = GrabberMemory(np.zeros(buffer_bytes(), dtype=np.uint8), create=True)
-    dev, host = DevicePort(m), HostPort(m)
-    host.program(GrabberSettings())
-    gen, words = dev.registers()
-    slot = dev.reserve()
-    dev.publish(slot, 0, "odd", gen, words, 0)
-    host.take(0.0, 0)

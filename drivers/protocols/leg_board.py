@@ -5,13 +5,18 @@ Two fixed-length frames, little-endian, each ``SYNC`` + type + body + CRC::
     sensor  (board → host, 17 bytes): A5 5A 'S' seq status ch0 … ch4 crc16
     command (host → board,  7 bytes): A5 5A 'C' seq actions crc16
 
-* ``seq`` counts frames per direction (u8, wrapping): a gap is a lost frame.
+* ``seq`` counts frames per direction (u8, wrapping): a gap is a lost frame. It must advance:
+  in serial-number arithmetic (RFC 1982) a step of 1…127 is forward (a step of k loses k − 1
+  frames), 0 is the same frame again and 128…255 is backwards — such a frame is refused
+  (counted as ``repeated_frames`` or ``out_of_order``; its values are not taken), so a link
+  that replays old frames never passes for a live board.
 * ``ch0 … ch4`` are int16 in thousandths: hip, knee, ankle angle (mrad), toe and heel load
   (‰ of the body weight). See :data:`CHANNELS`.
 * ``actions`` = knee << 2 | ankle, each 2 bits: 00 hold (lock), 01 decrease, 10 increase,
   11 release — the cybernetic actuators' inputs (K1 K2, A1 A2).
 * ``status`` = the actions the board applies (bits 0–3) | WATCHDOG (bit 4: it locked both
-  joints because no command came in time).
+  joints because no command came in time); bits 5–7 are not defined (:data:`STATUS_FAULTS`:
+  the bits that say the board is not under our command).
 * ``crc16`` is CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF; :func:`binascii.crc_hqx`) over
   type … body. Its Hamming distance of 4 at these lengths detects every error of up to three
   bits; a corrupted sync or type is not a frame at all.
@@ -19,7 +24,8 @@ Two fixed-length frames, little-endian, each ``SYNC`` + type + body + CRC::
 :class:`Decoder` finds frames of one type in a byte stream: it skips bytes until a sync,
 checks the type and the CRC, and on a bad frame drops one byte and looks again — so after
 any garbage, the first intact frame is found (resynchronisation within one frame). It counts
-frames, CRC errors, skipped bytes and sequence gaps, and never raises on input.
+frames, CRC errors, skipped bytes, sequence gaps and refused (repeated or backwards) frames,
+and never raises on input.
 """
 from __future__ import annotations
 
@@ -34,6 +40,7 @@ CHANNELS = ("hip", "knee", "ankle", "toe", "heel")
 SCALE = 1e-3  # one count = 1 mrad or 1 ‰ of the body weight
 WATCHDOG = 0x10
 ACTIONS_MASK = 0x0F  # the status bits that echo the actions applied
+STATUS_FAULTS = 0xFF & ~ACTIONS_MASK  # the watchdog's lock, and bits no board may set
 HOLD, DECREASE, INCREASE, RELEASE = 0, 1, 2, 3
 ACTION_NAMES = ("hold", "decrease", "increase", "release")
 
@@ -102,10 +109,11 @@ class Decoder:
         self.seq = -1
         self.status = 0
         self.actions = 0
-        self.counters = {"frames": 0, "crc_errors": 0, "skipped_bytes": 0, "lost_frames": 0}
+        self.counters = {"frames": 0, "crc_errors": 0, "skipped_bytes": 0, "lost_frames": 0, "repeated_frames": 0,
+                         "out_of_order": 0}
 
     def feed(self, data) -> int:
-        """Add bytes; return how many valid frames they completed."""
+        """Add bytes; return how many valid new frames they completed (refused ones not counted)."""
         buf = self._buf
         buf += data
         found = 0
@@ -124,8 +132,7 @@ class Decoder:
                 break
             end = i + self.length
             if buf[i + 2] == self.kind and crc16(memoryview(buf)[i + 2:end - 2]) == _CRC.unpack_from(buf, end - 2)[0]:
-                self._accept(buf, i + 2)
-                found += 1
+                found += self._accept(buf, i + 2)
                 start = end
             else:
                 if buf[i + 2] == self.kind:
@@ -135,11 +142,19 @@ class Decoder:
         del buf[:start]
         return found
 
-    def _accept(self, buf, at: int) -> None:
+    def _accept(self, buf, at: int) -> bool:
+        """Take an intact frame if its sequence number advances; False (counted) when it does not."""
         fields = self._body.unpack_from(buf, at)
         seq = fields[1]
         if self.seq >= 0:
-            self.counters["lost_frames"] += (seq - self.seq - 1) & 0xFF
+            step = (seq - self.seq) & 0xFF
+            if step == 0:
+                self.counters["repeated_frames"] += 1
+                return False
+            if step >= 0x80:
+                self.counters["out_of_order"] += 1
+                return False
+            self.counters["lost_frames"] += step - 1
         self.seq = seq
         self.counters["frames"] += 1
         if self.kind == SENSOR:
@@ -148,3 +163,4 @@ class Decoder:
                 self.channels[k] = v * SCALE
         else:
             self.actions = fields[2]
+        return True

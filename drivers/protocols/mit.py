@@ -59,7 +59,7 @@ class ReplyFormat(enum.Enum):
 
     KATZ = "katz"  # 6 bytes (Ben Katz's firmware, AK80-9 and most clones)
     CUBEMARS = "cubemars"  # 8 bytes: b6 = temperature (°C, int8), b7 = error code (AK10-9 V1.1 …)
-    DAMIAO = "damiao"  # 8 bytes: b0 = id | state << 4 (state ≥ 8 is an error), b6 = MOS °C, b7 = rotor °C
+    DAMIAO = "damiao"  # 8 bytes: b0 = id | state << 4 (0 disabled, 1 enabled, else an error), b6 = MOS °C, b7 = rotor °C
 
 
 REPLY_LENGTH = {ReplyFormat.KATZ: 6, ReplyFormat.CUBEMARS: 8, ReplyFormat.DAMIAO: 8}
@@ -284,7 +284,7 @@ def unpack_reply_into(data, model: MitDriveModel, out, row: int) -> None:
     else:
         state = data[0] >> 4
         r[REPLY_TEMPERATURE] = data[7]
-        r[REPLY_ERROR] = state if state >= 8 else 0  # 0/1 are disabled/enabled, not errors
+        r[REPLY_ERROR] = state if state > 1 else 0  # 0/1: disabled/enabled; 8…14 errors, the rest undefined
 
 
 def reply_says_motor_on(data, model: MitDriveModel) -> bool:

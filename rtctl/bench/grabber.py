@@ -29,7 +29,8 @@ GOALS_US = {"driver_8bit": 500.0, "unpack_sub_byte": 200.0, "marker": 300.0}
 
 
 def _memory_with_frame(settings: GrabberSettings):
-    from drivers.protocols.framegrabber import (CLOCK_LOOP, DevicePort, GrabberMemory, HostPort, buffer_bytes)
+    from drivers.protocols.framegrabber import CLOCK_LOOP, DevicePort, GrabberMemory, buffer_bytes
+    from drivers.protocols.framegrabber_host import HostPort
 
     m = GrabberMemory(np.zeros(buffer_bytes(), dtype=np.uint8), create=True, clock=CLOCK_LOOP)
     host, dev = HostPort(m), DevicePort(m)
@@ -47,7 +48,7 @@ def _memory_with_frame(settings: GrabberSettings):
 
 
 def bench_driver(repeats: int = 400) -> dict:
-    from drivers.protocols.framegrabber import H_LAST
+    from drivers.protocols.framegrabber import O_LAST
 
     settings = GrabberSettings(scan="frame", levels=256, word_bits=32)
     host, publish = _memory_with_frame(settings)
@@ -55,7 +56,7 @@ def bench_driver(repeats: int = 400) -> dict:
     state = {"frame": None}
 
     def take():
-        host.m.reader[H_LAST] = 0  # the newest frame counts as unseen: every call takes it anew
+        host.own[O_LAST] = 0  # the newest frame counts as unseen: every call takes it anew
         state["frame"] = host.take(0.0, 0)
 
     publish()
@@ -81,7 +82,8 @@ def bench_unpack(repeats: int = 200) -> dict:
 
 
 def _observer_and_frame():
-    from drivers.protocols.framegrabber import CLOCK_LOOP, GrabberMemory, HostPort, buffer_bytes
+    from drivers.protocols.framegrabber import CLOCK_LOOP, GrabberMemory, buffer_bytes
+    from drivers.protocols.framegrabber_host import HostPort
     from hil_sim.camera import CameraSim
     from rtctl.config import load_config
     from rtctl.runtime import build
@@ -104,7 +106,8 @@ def _observer_and_frame():
 
 
 def bench_marker_and_sim(repeats: int = 200) -> dict:
-    from drivers.protocols.framegrabber import CLOCK_LOOP, GrabberMemory, HostPort, buffer_bytes
+    from drivers.protocols.framegrabber import CLOCK_LOOP, GrabberMemory, buffer_bytes
+    from drivers.protocols.framegrabber_host import HostPort
     from hil_sim.camera import CameraSim
     from rtctl.vision.pixels import digitise_pack
 

@@ -60,5 +60,10 @@ class JointGroup(Hardware):
     def n(self) -> int:
         return len(self.joint_names)
 
+    def stale_cause(self) -> str | None:
+        """Why joints are not fresh, as the driver sees it (None: it cannot tell). Called only
+        when a stale-data fault is recorded (it may allocate)."""
+        return None
+
     def _write(self, t: float) -> Status:
         raise NotImplementedError

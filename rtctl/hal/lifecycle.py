@@ -120,6 +120,11 @@ class Hardware:
         loop calls it in every tick the safety stage is in charge, before ``write``; joint
         devices need nothing here (the stage writes their fallback command). Must not allocate."""
 
+    def fault_cause(self) -> str:
+        """Why the device reports ERROR or DEACTIVATE, as the driver saw it: its ``last_error``
+        unless the driver knows better. Called only when a fault is recorded (it may allocate)."""
+        return self.last_error or "the driver gave no cause"
+
     def diagnostics(self) -> dict:
         """Counters and facts for status and the run summary."""
         return {"lifecycle": self.lifecycle.value, "last_error": self.last_error}

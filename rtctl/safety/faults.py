@@ -7,6 +7,7 @@ from dataclasses import asdict, dataclass
 from typing import Protocol
 
 from rtctl.hal.joints import JointCommand, JointState
+from rtctl.hal.lifecycle import Status
 from rtctl.safety import kernels as k
 
 
@@ -51,6 +52,18 @@ class Fault:
         d = asdict(self)
         d["kind"] = self.kind.name.lower()
         return d
+
+
+def device_reason(device, status: int) -> str:
+    """A device fault's reason: the device by its configured name and the cause as its driver
+    saw it (``fault_cause()``), e.g. ``device arm failed: bus can0: CanOperationError: …``. For
+    the fault path only (it allocates)."""
+    what = "stopped itself" if status == Status.DEACTIVATE else "failed"
+    try:
+        cause = device.fault_cause()
+    except Exception as e:  # a reason must come out of a fault, whatever the driver does
+        cause = f"(its cause could not be read: {type(e).__name__}: {e})"
+    return f"device {device.name} {what}: {cause}"
 
 
 class GuardVerdict(enum.IntEnum):

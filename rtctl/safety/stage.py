@@ -33,7 +33,7 @@ import numpy as np
 import structlog
 
 from rtctl.safety import kernels as k
-from rtctl.safety.faults import STOPPING, Fault, FaultKind, GuardVerdict, Verdict
+from rtctl.safety.faults import STOPPING, Fault, FaultKind, GuardVerdict, Verdict, device_reason
 from rtctl.safety.limits import limits_table
 
 log = structlog.get_logger("rtctl.safety")
@@ -52,6 +52,10 @@ class SafetyStage:
     ``gravity``: optional ``q -> τ_g`` evaluated once at a fault, added to the hold.
     ``guard``: optional :class:`~rtctl.safety.faults.Guard`. ``on_event``: optional callable
     receiving every event dict (also logged on the structlog logger ``rtctl.safety``).
+    ``devices`` (in the order of ``device_joints``; objects with ``name``, ``fault_cause()`` and
+    optionally ``stale_cause()``, as :class:`~rtctl.hal.JointGroup`) and ``joint_names`` make
+    every fault's reason name the device and the joint by their configured names, and the
+    cause as the driver saw it (asked only when a fault is recorded); without them, indices.
     Scalars or one value per joint for the gains, ``position_margin`` and ``following_error``
     (rad or m; ∞: no following-error check).
     """
@@ -60,7 +64,7 @@ class SafetyStage:
                  damping=5.0, stale_ticks: int = 3, position_margin=0.0, velocity_factor: float = 1.0,
                  kp_max=np.inf, kd_max=np.inf, following_error=np.inf, following_ticks: int = 10,
                  estop_off_delay: float = 0.2, fault_off_delay: float = math.inf, stop_velocity: float = 0.01,
-                 device_joints=None, gravity=None, guard=None, on_event=None):
+                 device_joints=None, gravity=None, guard=None, on_event=None, devices=None, joint_names=None):
         self.lim = limits_table(q_min, q_max, v_max, tau_max, position_margin=position_margin,
                                 velocity_factor=velocity_factor, kp_max=kp_max, kd_max=kd_max,
                                 following_error=following_error)
@@ -89,6 +93,12 @@ class SafetyStage:
         for d, g in enumerate(groups):
             self.iw[k.DEVICE, g] = d
         self.device_of_joint = self.iw[k.DEVICE, :n]
+        if devices is not None and len(devices) != len(groups):
+            raise ValueError(f"devices: one per group of device_joints ({len(groups)}), got {len(devices)}")
+        if joint_names is not None and len(joint_names) != n:
+            raise ValueError(f"joint_names: one per joint ({n}), got {len(joint_names)}")
+        self.devices = None if devices is None else list(devices)
+        self.joint_names = None if joint_names is None else tuple(joint_names)
         self._device_first = np.array([g.min() for g in groups])
         self.gravity = gravity
         self.guard = guard
@@ -116,19 +126,22 @@ class SafetyStage:
                  "kp_max", "kd_max", "following_error", "following_ticks", "estop_off_delay", "fault_off_delay",
                  "stop_velocity")
         kw = {a: getattr(config, a) for a in names if hasattr(config, a)}
+        kw["joint_names"] = getattr(model, "joint_names", None)
         kw.update(options)
         return cls(model.q_min, model.q_max, model.v_max, model.tau_max, **kw)
 
     # -- every tick ----------------------------------------------------------------------
     def check(self, t: float, tick: int, state, statuses, command, controller_ok: bool = True,
-              controller_error: str | None = None, reference=None) -> Verdict:
+              controller_error: str | None = None, reference=None, device_error: str | None = None) -> Verdict:
         """Check ``state``, bound or replace ``command`` in place, and return the verdict.
 
         ``statuses``: per device, this tick's read (or write) status as an int64 array (None:
         all OK). ``controller_ok=False`` (a controller raised; ``controller_error`` says how)
         engages the fallback this tick. ``reference``: the positions the controllers track this
-        tick (None: no following-error check, and its counts restart). Allocates nothing while
-        no fault is latched.
+        tick (None: no following-error check, and its counts restart). ``device_error``: the
+        reason of a device without joints that failed this tick (a framegrabber, an I/O board;
+        :func:`~rtctl.safety.faults.device_reason`): a DEVICE_ERROR, the fallback this tick.
+        Allocates nothing while no fault is latched.
         """
         if reference is not None and (reference.ndim != 1 or len(reference) != self.n):
             raise ValueError(f"reference: one position per joint ({self.n}) expected")
@@ -152,6 +165,8 @@ class SafetyStage:
             self._latch_nonfinite_command(command, "")
         if not controller_ok:
             self._latch(FaultKind.CONTROLLER, -1, math.nan, controller_error or "a controller raised")
+        if device_error is not None:
+            self._latch(FaultKind.DEVICE_ERROR, -1, math.nan, device_error)
         if bound and not self._faulted and not self._stopping and self.guard is not None:
             self._run_guard(t, state, command, mode)
         if not (self._faulted or self._stopping):
@@ -273,23 +288,45 @@ class SafetyStage:
             for kind in _STATE_KINDS:
                 if not f & kind or (kind & _DEVICE_KINDS and j != self._device_first[d]):
                     continue  # a device fault is recorded once, at the device's first joint
+                joint = self._joint_label(j)
                 if kind == FaultKind.POSITION:
-                    value, why = q[j], f"joint {j} at {q[j]:.6g} outside [{lim[k.HARD_LO, j]:.6g}, {lim[k.HARD_HI, j]:.6g}]"
+                    value, why = q[j], f"{joint} at {q[j]:.6g} outside [{lim[k.HARD_LO, j]:.6g}, {lim[k.HARD_HI, j]:.6g}]"
                 elif kind == FaultKind.VELOCITY:
-                    value, why = qd[j], f"joint {j} velocity {qd[j]:.6g} beyond ±{lim[k.V_LIM, j]:.6g}"
+                    value, why = qd[j], f"{joint}: velocity {qd[j]:.6g} beyond ±{lim[k.V_LIM, j]:.6g}"
                 elif kind == FaultKind.NONFINITE_STATE:
                     value = q[j] if not np.isfinite(q[j]) else qd[j]
-                    why = f"joint {j} reported a non-finite state"
+                    why = f"{joint} reported a non-finite state"
                 elif kind == FaultKind.FOLLOWING:
                     e = self._reference[j] - q[j]
-                    value, why = e, (f"joint {j} following error {e:.6g} beyond ±{lim[k.FOLLOW, j]:.6g} for "
+                    value, why = e, (f"{joint}: following error {e:.6g} beyond ±{lim[k.FOLLOW, j]:.6g} for "
                                      f"{self.following_ticks} ticks (reference {self._reference[j]:.6g})")
                 elif kind == FaultKind.STALE:
-                    value, why = stale[j], f"joint {j}: no fresh data for {stale[j]} ticks"
+                    value, why = stale[j], f"{joint}: no fresh data for {stale[j]} ticks{self._stale_cause(d)}"
                 else:
-                    value, why = statuses[d], f"device {d} status {int(statuses[d])}"
+                    value, why = statuses[d], self._device_reason(d, int(statuses[d]))
                 self._latch(kind, int(j), float(value), why)
         self._latched[:self.n] |= flags  # seen: the other joints of a faulty device need no record
+
+    def _joint_label(self, j: int) -> str:
+        """``joint 2 (elbow) of device arm``, or ``joint 2`` without names (fault path: allocates)."""
+        label = f"joint {j}" if self.joint_names is None else f"joint {j} ({self.joint_names[j]})"
+        if self.devices is not None:
+            label += f" of device {self.devices[int(self.device_of_joint[j])].name}"
+        return label
+
+    def _device_reason(self, d: int, status: int) -> str:
+        if self.devices is None:
+            return f"device {d} status {status}"
+        return device_reason(self.devices[d], status)
+
+    def _stale_cause(self, d: int) -> str:
+        """`` (what the driver says about it)``, or nothing when it cannot tell."""
+        ask = None if self.devices is None else getattr(self.devices[d], "stale_cause", None)
+        try:
+            cause = ask() if ask is not None else None
+        except Exception as e:
+            cause = f"its cause could not be read: {type(e).__name__}: {e}"
+        return f" ({cause})" if cause else ""
 
     def _latch_nonfinite_command(self, command, where):
         fields = (command.tau_ff, command.q_des, command.qd_des, command.kp, command.kd)

@@ -60,6 +60,14 @@ def test_configure_writes_the_settings_and_reads_the_state_without_enabling(rig)
     assert [d._max_permille for d in r.drive_list] == [2500, 0xFFFF]
 
 
+def test_a_malformed_sdo_answer_at_configure_is_a_hardware_error_naming_the_drive(rig):
+    r = rig()
+    r.drive_list[1].node.data_store[c.RATED_TORQUE] = {0: b"\x10\x27"}  # 2 bytes for an UNSIGNED32
+    with pytest.raises(HardwareError, match=r"drive 0x2 \(b\).*a malformed SDO answer"):
+        r.configure()
+    assert r.bus is None
+
+
 def test_configure_refuses_a_drive_that_scales_otherwise(rig):
     r = rig(drive_scale={"b": 25.0})
     with pytest.raises(HardwareError, match=r"drive 0x2 \(b\).*rated torque 0x6076 is 25 N·m.*20 N·m"):

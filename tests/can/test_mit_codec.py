@@ -99,12 +99,13 @@ def test_the_shipped_models_reply_with_their_torque(model, newton_metres):
     assert mit.unpack_reply(frame, model).effort * model.torque_constant == newton_metres
 
 
-def test_damiao_states_from_8_are_errors():
-    # Damiao: 0 disabled, 1 enabled, 8 over-voltage … 0xE overload (the drive's state nibble)
+def test_damiao_states_other_than_disabled_and_enabled_are_errors():
+    # Damiao: 0 disabled, 1 enabled, 8 over-voltage … 0xE overload (the drive's state nibble); the
+    # undefined 2…7 and 0xF are not trusted as healthy either
     dm = DRIVE_MODELS["dm4310"]
     for state in range(16):
         frame = bytes([state << 4 | 3]) + bytes.fromhex("7F FF 7F F7 FF 28 28")
-        assert mit.unpack_reply(frame, dm)[0::5] == (3, state if state >= 8 else 0), state
+        assert mit.unpack_reply(frame, dm)[0::5] == (3, state if state > 1 else 0), state
     assert mit.pack_reply(dm, 3, 0.0, 0.0, 0.0, enabled=False)[0] == 0x03
 
 

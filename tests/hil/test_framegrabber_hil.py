@@ -138,3 +138,56 @@ def test_marker_observed_in_a_run_against_hil_sim(hil_sim, tmp_path):
         assert code == 0, (summary["stop_reason"], err[-2000:])
         assert camera["frames"] >= 0.9 * 50 * 3.0 and camera["dropped"] <= 0.1 * camera["frames"]
         assert abs(lag) <= 0.025 and rms_shifted <= 1.0
+
+
+@pytest.mark.parametrize("garbage", ["slot 2^40", "random header"])
+def test_garbage_in_the_shared_memory_is_a_controlled_stop_naming_the_camera(hil_sim, tmp_path, garbage):
+    """Defect 1 of issue 25: garbage written into the grabber's shared memory during a run
+    killed the daemon (SIGSEGV, exit 139: no controlled stop, drives left enabled, no summary,
+    the socket file left behind). Now it is the camera's fault: the run stops as after any
+    fault (exit 3), the fault names the camera and the word, the drives are switched off by
+    command (not by their watchdog), and the socket is gone."""
+    import json
+    import os
+
+    from drivers.framegrabber import attach_shared_memory
+    from drivers.protocols.framegrabber import HEADER_BYTES, W_PUBLISHED, GrabberMemory
+    from hil_helpers import STALL_TOLERANT, Daemon, loop_time, variant, wait_for
+
+    config = variant(tmp_path, "puma560_hil_socketcand.toml", **STALL_TOLERANT)
+    config.write_text(config.read_text().replace("[safety]", CAMERA_AND_OBSERVER + "\n[safety]"))
+    sim = hil_sim(config, "--port", 0)
+    saved = dict(os.environ)
+    os.environ.update(sim.env())  # the Daemon helper inherits the environment
+    try:
+        d = Daemon(config, tmp_path, "--duration", 20, "--telemetry", tmp_path / "run.msgpack")
+    finally:
+        os.environ.clear()
+        os.environ.update(saved)
+    shm = attach_shared_memory(sim.info["env"]["HIL_SIM_FRAMEGRABBER"])
+    try:
+        assert wait_for(lambda: loop_time(d) > 0.5 or d.proc.poll() is not None, timeout=90)
+        if garbage == "slot 2^40":
+            writer = GrabberMemory(shm.buf).writer
+            for _ in range(100):  # for 0.1 s: the camera publishes a slot every 20 ms
+                writer[W_PUBLISHED] = 2 ** 40
+                time.sleep(0.001)
+            del writer
+        else:
+            header = np.ndarray((HEADER_BYTES,), dtype=np.uint8, buffer=shm.buf)
+            header[:] = np.random.default_rng(25).integers(0, 256, HEADER_BYTES, dtype=np.uint8)
+            del header
+        code, out, err = d.finish(timeout=60)
+    finally:
+        d.kill()
+        shm.close()
+    exit_event = sim.stop()
+    assert code == 3, (code, err[-3000:])
+    summary = json.loads(d.summary.read_text())
+    fault = summary["safety"]["faults"][0]
+    cause = "published slot index 1099511627776" if garbage == "slot 2^40" else "layout word 0 changed"
+    assert fault["kind"] == "device_error" and fault["reason"].startswith("device camera failed: "), fault
+    assert cause in fault["reason"], fault
+    assert not d.socket.exists()
+    assert not any(drive["enabled"] for drive in exit_event["drives"])
+    assert {e["cause"] for e in sim.of("motor_off")} == {"command"}  # off by the daemon, not a watchdog

@@ -94,9 +94,26 @@ def test_split_frames_lost_frames_and_foreign_frames_are_counted():
 
 def test_lost_frames_are_counted_from_seq_0_and_across_the_wrap():
     d = lb.Decoder(lb.SENSOR)
-    for seq in (0, 3, 254, 255, 0, 1, 255):  # gaps: 2, 250, 0, 0, 0, 253
+    for seq in (0, 3, 100, 200, 254, 255, 0, 1, 120):  # steps 3, 97, 100, 54, 1, 1, 1, 119
         d.feed(lb.encode_sensor(seq, 0, [0.0] * 5))
-    assert d.counters["frames"] == 7 and d.counters["lost_frames"] == 2 + 250 + 253
+    assert d.counters["frames"] == 9 and d.counters["lost_frames"] == 2 + 96 + 99 + 53 + 118
+    assert d.counters["repeated_frames"] == d.counters["out_of_order"] == 0
+
+
+def test_a_repeated_or_backwards_frame_is_refused_not_counted_as_hundreds_lost():
+    """Defect 3 of issue 25: a proxy resent one sensor frame 1311 times; each repeat counted as
+    255 lost frames (334,305 in all) and as a new frame. A repeat (step 0) and a step back
+    (128…255, serial-number arithmetic) are refused: no new frame, their values not taken."""
+    d = lb.Decoder(lb.SENSOR)
+    assert d.feed(lb.encode_sensor(17, 0, [0.1] * 5)) == 1
+    replay = lb.encode_sensor(17, 0, [0.2] * 5)
+    assert sum(d.feed(replay) for _ in range(1311)) == 0
+    for back in (16, 17 - 100, 17 - 128):  # backwards by 1, 100, 128
+        assert d.feed(lb.encode_sensor(back & 0xFF, 0, [0.3] * 5)) == 0
+    assert (d.seq, d.counters["frames"], d.counters["lost_frames"]) == (17, 1, 0)
+    assert (d.counters["repeated_frames"], d.counters["out_of_order"]) == (1311, 3)
+    assert np.all(d.channels == 0.1)  # the values of the frame taken, not of the refused ones
+    assert d.feed(lb.encode_sensor(17 + 127, 0, [0.4] * 5)) == 1 and d.counters["lost_frames"] == 126  # forward
 
 
 def test_encoders_check_their_inputs():
@@ -122,7 +139,8 @@ def test_a_fresh_decoder_reports_nothing_received():
     for kind in (lb.SENSOR, lb.COMMAND):
         d = lb.Decoder(kind)
         assert (d.seq, d.status, d.actions) == (-1, 0, lb.HOLD) and not d.channels.any()
-        assert d.counters == {"frames": 0, "crc_errors": 0, "skipped_bytes": 0, "lost_frames": 0}
+        assert d.counters == {"frames": 0, "crc_errors": 0, "skipped_bytes": 0, "lost_frames": 0,
+                              "repeated_frames": 0, "out_of_order": 0}
 
 
 def test_a_corrupted_frame_is_one_crc_error_and_all_its_bytes_are_skipped():
@@ -130,7 +148,8 @@ def test_a_corrupted_frame_is_one_crc_error_and_all_its_bytes_are_skipped():
     bad[-1] ^= 0x40  # CRC
     d = lb.Decoder(lb.SENSOR)
     assert d.feed(bad + lb.encode_sensor(2, 0, [0.0] * 5)) == 1 and d.seq == 2
-    assert d.counters == {"frames": 1, "crc_errors": 1, "skipped_bytes": lb.SENSOR_LENGTH, "lost_frames": 0}
+    assert d.counters == {"frames": 1, "crc_errors": 1, "skipped_bytes": lb.SENSOR_LENGTH, "lost_frames": 0,
+                          "repeated_frames": 0, "out_of_order": 0}
 
 
 def test_skipped_bytes_count_exactly_the_bytes_outside_frames():
@@ -143,9 +162,8 @@ def test_skipped_bytes_count_exactly_the_bytes_outside_frames():
     # a frame's own last A5 is no garbage: nothing more is skipped
     assert d.feed(lb.encode_sensor(6, 0, [0.0] * 5)) == 1 and d.counters["skipped_bytes"] == 3
     # garbage after a frame in the same read; a sync split across two reads
-    frame = lb.encode_sensor(7, 0, [0.0] * 5)
-    assert d.feed(frame + b"\x01\x02\xa5") == 1 and d.counters["skipped_bytes"] == 5
-    assert d.feed(frame[1:]) == 1 and d.seq == 7 and d.counters["skipped_bytes"] == 5
+    assert d.feed(lb.encode_sensor(7, 0, [0.0] * 5) + b"\x01\x02\xa5") == 1 and d.counters["skipped_bytes"] == 5
+    assert d.feed(lb.encode_sensor(8, 0, [0.0] * 5)[1:]) == 1 and d.seq == 8 and d.counters["skipped_bytes"] == 5
 
 
 @settings(max_examples=100, deadline=None)

@@ -9,20 +9,59 @@ from drivers.leg_board import SerialLegBoard
 from hil_sim.leg_plant import LegParams, LegPlant
 from hil_sim.leg_serial import LegBoardServer
 from rtctl.errors import HardwareError
-from rtctl.hal import Status
+from rtctl.hal import JointCommand, Status
+from rtctl.safety import FaultKind, SafetyStage, Verdict
+from rtctl.safety.faults import device_reason
 
 PERIOD = 0.002
 
 
-@pytest.fixture
-def board_on_pty():
+class ProxiedBoard(LegBoardServer):
+    """The board firmware behind a proxy that can resend the board's last sensor frame instead of
+    each new one (``replay``: the same sequence number again), or drop our commands (``deaf``)."""
+
+    replay = False
+    deaf = False
+    last_frame = b""
+
+    def _commands(self, count, now):
+        if not self.deaf:
+            super()._commands(count, now)
+
+    def _reply(self):
+        if self.replay and self.last_frame:
+            self.pty.out += self.last_frame
+            return
+        before = len(self.pty.out)
+        super()._reply()
+        self.last_frame = bytes(self.pty.out[before:]) or self.last_frame
+
+
+def _serve(period, realtime_factor=0.0):
     plant = LegPlant(LegParams(angle_noise=0.0, load_noise=0.0))
     events = []
-    server = LegBoardServer(plant, PERIOD, emit=events.append, watchdog_s=0.05)
+    server = ProxiedBoard(plant, period, realtime_factor=realtime_factor, emit=events.append, watchdog_s=0.05)
     thread = threading.Thread(target=server.serve_forever, daemon=True)
     thread.start()
+    return server, thread, plant, events
+
+
+@pytest.fixture
+def board_on_pty():
+    server, thread, plant, events = _serve(PERIOD)
     board = SerialLegBoard("board", ["hip", "knee", "ankle"], server.path, PERIOD, reply_deadline=5.0)
     yield board, server, plant, events
+    board.close()
+    server.shutdown()
+    thread.join(5)
+
+
+@pytest.fixture
+def free_running_board():
+    period = 0.01
+    server, thread, plant, events = _serve(period, realtime_factor=1.0)
+    board = SerialLegBoard("board", ["hip", "knee", "ankle"], server.path, period, reply_deadline=0.9)
+    yield board, server
     board.close()
     server.shutdown()
     thread.join(5)
@@ -73,3 +112,54 @@ def test_loop_url_hears_only_its_own_commands():
     with pytest.raises(HardwareError, match="no sensor frame"):
         board.configure()
     assert board.decoder.counters["frames"] == 0  # its own 7-byte command echoed is no sensor frame
+
+
+def test_a_board_that_repeats_its_last_frame_goes_stale_and_the_safety_stage_faults(board_on_pty):
+    """Defect 3 of issue 25: a proxy resent one sensor frame (same sequence number) 1311 times —
+    no stale fault, and the lost-frame counter read 334,305 (255 per repeat). A repeated frame is
+    no new data: the joints are not fresh, the stage's stale_ticks fault names the device and
+    the repeats, and nothing is counted lost."""
+    board, server, plant, events = board_on_pty
+    stage = SafetyStage(-np.pi * np.ones(3), np.pi * np.ones(3), 50 * np.ones(3), 100 * np.ones(3), stale_ticks=3,
+                        devices=[board], joint_names=board.joint_names)
+    command, statuses = JointCommand(3), np.zeros(1, dtype=np.int64)
+    board.configure()
+    board.activate()
+
+    def tick(k):
+        statuses[0] = board.read(k * PERIOD)
+        verdict = stage.check(k * PERIOD, k, board.state, statuses, command)
+        statuses[0] = max(statuses[0], board.write(k * PERIOD))
+        return verdict
+
+    assert [tick(k) for k in range(20)] == [Verdict.OK] * 20
+    server.replay = True
+    verdicts = [tick(k) for k in range(20, 60)]
+    assert Verdict.OK not in verdicts[4:]  # 3 stale ticks after the last new frame (read one tick later)
+    fault = stage.faults[0]
+    assert fault.kind == FaultKind.STALE and fault.tick <= 24, stage.faults
+    assert "of device board: no fresh data for 3 ticks" in fault.reason and "repeated" in fault.reason, fault.reason
+    c = board.decoder.counters
+    assert c["repeated_frames"] >= 35 and c["lost_frames"] == 0 and c["frames"] <= 22, c
+
+
+def test_the_boards_watchdog_lock_while_running_is_an_error_naming_it(free_running_board):
+    """Defect 4 of issue 25: for 4.6 s the board reported that its watchdog had locked both
+    joints (no command reached it), and the run exited 0. The status is checked every tick while
+    active: the lock is the device's ERROR, its reason naming the board and the watchdog."""
+    board, server = free_running_board
+    board.configure()
+    board.activate()
+    t = 0.0
+    for _ in range(10):
+        t += board.period
+        assert board.read(t) == Status.OK and board.write(t) == Status.OK, board.last_error
+    server.deaf = True  # our commands stop reaching the board; its frames go on
+    statuses = []
+    for _ in range(40):  # 0.4 s: the watchdog locks after 50 ms
+        t += board.period
+        statuses.append(board.read(t))
+        board.write(t)
+    assert Status.ERROR in statuses and statuses[-1] == Status.ERROR, statuses
+    assert server.locked and server.counters["watchdog_trips"] == 1
+    assert device_reason(board, Status.ERROR).startswith("device board failed: the board's watchdog locked both joints")

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from drivers.framegrabber import attach_shared_memory
-from drivers.protocols.framegrabber import (BUSY, H_CLAIM, H_HOLD, W_SEQ0, DevicePort, GrabberMemory, HostPort,
-                                            buffer_bytes)
+from drivers.protocols.framegrabber import BUSY, H_CLAIM, H_HOLD, W_SEQ0, DevicePort, GrabberMemory, buffer_bytes
+from drivers.protocols.framegrabber_host import HostPort
 from rtctl.hal.framegrabber import GrabberSettings
 
 SETTINGS = GrabberSettings(density=128, scan="frame", levels=256, word_bits=32)
@@ -97,11 +97,11 @@ def _pair():
 def test_device_never_reserves_the_published_held_or_claimed_slot():
     memory, host, dev, (gen, regs) = _pair()
     slot = dev.reserve()
-    dev.publish(slot, 0, "odd", gen, regs, 0)
+    dev.publish(slot, 0, "frame", gen, regs, SETTINGS.frame_bytes)
     held = host.claim()
     assert held == slot and memory.reader[H_HOLD] == slot
     newer = dev.reserve()
-    dev.publish(newer, 0, "odd", gen, regs, 0)
+    dev.publish(newer, 0, "frame", gen, regs, SETTINGS.frame_bytes)
     memory.reader[H_CLAIM] = 3 if 3 not in (held, newer) else 2  # a claim in flight
     claimed = int(memory.reader[H_CLAIM])
     for _ in range(20):
@@ -114,7 +114,7 @@ def test_device_never_reserves_the_published_held_or_claimed_slot():
 def test_claim_fails_cleanly_when_the_slot_is_being_written():
     memory, host, dev, (gen, regs) = _pair()
     slot = dev.reserve()
-    dev.publish(slot, 0, "odd", gen, regs, 0)
+    dev.publish(slot, 0, "frame", gen, regs, SETTINGS.frame_bytes)
     memory.writer[W_SEQ0 + slot] = BUSY  # the device took the slot back between our two looks
     assert host.claim() == -1 and memory.reader[H_CLAIM] == -1 and host.read == 0
 
@@ -123,9 +123,9 @@ def test_nothing_new_is_none_and_the_held_frame_stays():
     memory, host, dev, (gen, regs) = _pair()
     assert host.take(0.0, 0) is None
     slot = dev.reserve()
-    dev.publish(slot, 123, "even", gen, regs, 0)
+    dev.publish(slot, 123, "frame", gen, regs, SETTINGS.frame_bytes)
     frame = host.take(1.0, 2_000_000_000)
-    assert (frame.seq, frame.field, frame.settings) == (1, "even", SETTINGS)
+    assert (frame.seq, frame.field, frame.settings) == (1, "frame", SETTINGS)
     # CLOCK_MONOTONIC: loop time 1 s was monotonic 2 s at this read, so 123 ns is loop −1 s + 123 ns
     assert frame.capture_time == pytest.approx(-1.0 + 123e-9)
     assert host.take(1.0, 0) is None and memory.reader[H_HOLD] == slot

@@ -3,8 +3,9 @@ lines, the registers (settings, N-shot, a bad program), and what the picture sho
 import numpy as np
 import pytest
 
-from drivers.protocols.framegrabber import FAULT, R_GEN, S_STATE
+from drivers.protocols.framegrabber import FAULT, R_GEN, S_STATE, W_WRITTEN
 from hil_sim.render import Scene
+from rtctl.errors import ProtocolError
 from rtctl.hal.framegrabber import GrabberSettings
 from rtctl.vision.camera import Camera
 from rtctl.vision.marker import locate
@@ -98,16 +99,20 @@ def test_n_shot_takes_n_images_then_waits_for_a_trigger():
     assert len(rig.frames(0.3)) == 3
 
 
-def test_a_bad_program_is_refused_and_the_old_settings_stay():
+def test_a_bad_program_is_refused_the_old_settings_stay_and_the_host_reports_the_fault():
     rig = Rig(GrabberSettings(density=64, scan="fields"))
     rig.frames(0.05)
     regs = rig.memory.regs
     regs[R_GEN] += 1
     regs[1] = 1000  # density 1000
     regs[R_GEN] += 1
-    got = rig.frames(0.1)
+    written = int(rig.memory.writer[W_WRITTEN])
+    with pytest.raises(ProtocolError, match="the device reports FAULT"):  # the host's poll names it
+        rig.frames(0.1)
     assert rig.memory.status[S_STATE] == FAULT and rig.camera.settings_errors == 1
-    assert got and all(f.settings.density == 64 for _, f in got)
+    for k in range(1, 101):  # the device goes on with the settings it had
+        rig.camera.step(round((rig.t + k * rig.period) * 1e9))
+    assert rig.memory.writer[W_WRITTEN] > written and rig.camera.settings.density == 64
 
 
 def test_pinhole_projection_by_hand():

@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from drivers.protocols.framegrabber import CLOCK_LOOP, GrabberMemory, HostPort, buffer_bytes
+from drivers.protocols.framegrabber import CLOCK_LOOP, GrabberMemory, buffer_bytes
+from drivers.protocols.framegrabber_host import HostPort
 from hil_sim.camera import CameraSim
 from hil_sim.render import Scene
 from rtctl.model import load_robot
