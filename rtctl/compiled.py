@@ -1,7 +1,8 @@
 """The two ways rtctl compiles numerical code with numba.
 
 ``@kernel`` — a function called from Python or shared by several kernels: compiled on first
-use, cached on disk (``__pycache__``), and without numba's reference counting (``_nrt=False``).
+use, cached on disk (in a directory named after the sources: :mod:`rtctl.kernel_cache`), and
+without numba's reference counting (``_nrt=False``).
 The tick's arrays are all preallocated, so there is nothing to count; counting would cost
 an atomic increment and decrement per array per call (the recursions ran 2–3× slower with it)
 and a heap-allocated wrapper per array argument on every call from Python (~0.15 µs each).

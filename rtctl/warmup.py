@@ -1,8 +1,9 @@
 """Preparing a run's numba kernels before the loop starts: in parallel, and saying so.
 
-The first run on a machine compiles every kernel its configuration uses; numba keeps them in
-``__pycache__``, so later runs only load them. :class:`Precompile` takes the run's warm-up
-groups (a device's step, a controller's update, the safety stage's paths …) and
+The first run on a machine (or after any change of the sources) compiles every kernel its
+configuration uses; numba keeps them on disk (:mod:`rtctl.kernel_cache`), so later runs only
+load them. :class:`Precompile` takes the run's warm-up groups (a device's step, a controller's
+update, the safety stage's paths …) and
 
 1. runs them in the daemon's process until one would compile (numba reports a cache miss) —
    a later run loads everything here in about a second and forks nothing;
@@ -33,7 +34,7 @@ import structlog
 log = structlog.get_logger("rtctl.warmup")
 
 HEARTBEAT_S = 1.0  # the longest the daemon stays silent while kernels load or compile
-NOTE = "a machine's first run compiles them; later runs load them from __pycache__"
+NOTE = "the first run after an install or update compiles them; later runs load them from the cache"
 
 Group = tuple[str, Callable[[], object]]
 

@@ -33,6 +33,7 @@ import hashlib
 import json
 import os
 import re
+import shutil
 import sqlite3
 import subprocess
 import sys
@@ -121,7 +122,7 @@ def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD") 
     baseline = subprocess.run(PYTEST.split() + tests.split(), cwd=tree, env=env, capture_output=True, text=True)
     if baseline.returncode != 0:
         raise SystemExit(f"{name}: the tests fail without any mutant:\n{baseline.stdout[-3000:]}")
-    subprocess.run([*CR, "exec", config, db], cwd=tree, env=env, check=True)
+    _exec(config, db, tree)
     return report(name, tree, db)
 
 
@@ -161,12 +162,25 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         pending = sum(1 for _ in work_db.pending_work_items)  # a stopped run's unfinished ones too
     print(f"{name}: resuming in {tree}, {pending} mutants to run", flush=True)
-    subprocess.run([*CR, "exec", config, db], cwd=tree, env=_env(tree), check=True)
+    _exec(config, db, tree)
     return report(name, tree, db)
 
 
 def _env(tree: Path) -> dict:
+    """The tests' environment: the copy on the path, its compiled kernels under ``.numba``.
+    rtctl keeps them in ``.numba/rtctl-kernels-<hash of the sources>`` (rtctl.kernel_cache),
+    so each mutant gets a cache of its own — numba alone would reuse a caller compiled against
+    an earlier mutant's (or the original) callee in another file — and the next mutant's run
+    removes it."""
     return {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tree / ".numba")}
+
+
+def _exec(config: Path, db: Path, tree: Path) -> None:
+    """Run the pending mutants, then drop the last one's kernels."""
+    try:
+        subprocess.run([*CR, "exec", config, db], cwd=tree, env=_env(tree), check=True)
+    finally:
+        shutil.rmtree(tree / ".numba", ignore_errors=True)
 
 
 def report(name: str, tree: Path, db: Path) -> dict:
