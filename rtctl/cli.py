@@ -47,13 +47,17 @@ _FINITE = _number("a finite number", lambda x: True)
 _RATE = _number("a rate in Hz in [1, 100000]", lambda x: 1 <= x <= 1e5)
 
 
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
+class _Version(argparse.Action):
+    """``--version``: looked up only when asked (importlib.metadata costs 40 ms every command)."""
 
-    try:
-        return version("rtctl")
-    except PackageNotFoundError:  # (run from a source tree that is not installed)
-        return "unknown (not installed)"
+    def __call__(self, parser, namespace, values, option_string=None):
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            print(f"rtctl {version('rtctl')}")
+        except PackageNotFoundError:  # (run from a source tree that is not installed)
+            print("rtctl (version unknown: not installed)")
+        parser.exit()
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -61,7 +65,7 @@ def _parser() -> argparse.ArgumentParser:
         prog="rtctl", description="Real-time control runtime for robot joints. Documentation: docs/index.md "
                                  "in the source tree.",
         epilog=__doc__.split("\n", 2)[2].replace("``", ""), formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--version", action="version", version=f"rtctl {_version()}")
+    p.add_argument("--version", action=_Version, nargs=0, help="print rtctl's version and exit")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     add_parser = sub.add_parser
 
@@ -201,10 +205,27 @@ def _parser() -> argparse.ArgumentParser:
 
     sub.add_parser("doctor", help="report this machine's real-time readiness and what to change")
 
-    from rtctl.logic.cli import add_parser as add_leg_parser
-
-    add_leg_parser(sub)
+    _add_leg_parser(sub)
     return p
+
+
+LEG_TABLE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "configs", "leg", "table3.toml")
+
+
+def _add_leg_parser(sub) -> None:
+    """`rtctl leg` (defined here: importing rtctl.logic loads numba, which a parser must not)."""
+    leg = sub.add_parser("leg", help="the prosthetic-leg automaton: event table → J-K/PLA circuit; replay",
+                         description="Synthesise an event table (the leg paper's Table 3) into a race-free "
+                                     "asynchronous J-K flip-flop circuit in a PLA, verify it exhaustively, "
+                                     "and replay the table in every order of its bit changes.")
+    legsub = leg.add_subparsers(dest="leg_command", required=True, metavar="ACTION")
+    for name, text in (("compile", "flow table, guards, state assignment, equations, PLA matrix, checks"),
+                       ("replay", "replay the table: every one-at-a-time order of the bits changing between rows")):
+        p = legsub.add_parser(name, help=text, description=text)
+        p.add_argument("table", nargs="?", default=str(LEG_TABLE),
+                       help="event table (TOML; default: the shipped configs/leg/table3.toml)")
+        if name == "compile":
+            p.add_argument("--pla", metavar="PATH", help="also write the PLA in Berkeley (espresso) .pla format")
 
 
 # Most specific first: each family of the error tree, its exit code and how the message starts.
@@ -268,7 +289,7 @@ def _dispatch(args) -> int:
 
         return print_model(args)
     if args.command in ("status", "stop", "estop", "reset", "move"):
-        from rtctl.commands import control_request
+        from rtctl.control_socket.command import control_request
 
         return control_request(args)
     if args.command == "plot":

@@ -116,24 +116,6 @@ def _env_lines(uses) -> list[str]:
     return lines
 
 
-def control_request(args) -> int:
-    from rtctl.config import default_socket_path
-    from rtctl.control_socket import request
-
-    path = args.socket or default_socket_path()
-    fields = {}
-    if args.command == "move":
-        fields = {"q": list(args.q), "deg": args.deg}
-        if args.duration is not None:
-            fields["duration"] = args.duration
-    # a move is answered once it is planned and has started: planning may take seconds
-    reply = request(path, args.command, timeout=120.0 if args.command == "move" else 5.0, **fields)
-    print_json(reply)
-    if reply.get("invalid"):  # the request itself was wrong (e.g. the number of joints)
-        return EXIT_CONFIG
-    return EXIT_OK if reply.get("ok", False) else 3
-
-
 def bench(args) -> int:
     robot = args.robot or str(SHIPPED_PUMA)
     if args.what == "dynamics":

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from rtctl.control.gains import per_joint
+from rtctl.control_socket.client import default_socket_path
 from rtctl.errors import ConfigError, RtctlError
 from rtctl.guard.config import GuardConfig, check_waypoints, load_guard
 from rtctl.model import Model, load_robot
@@ -118,11 +119,6 @@ class Config:
     socket_path: Path
     telemetry_on_failure: str = "stop"  # writer failed: "stop" (safe stop, exit 3) or "continue" without telemetry
     guard: GuardConfig | None = None  # interference zones (robot file and [guard]), if any
-
-
-def default_socket_path() -> Path:
-    runtime = os.environ.get("XDG_RUNTIME_DIR")
-    return Path(runtime, "rtctl.sock") if runtime else Path(f"/tmp/rtctl-{os.getuid()}.sock")
 
 
 def load_config(path, *, sim: bool = False) -> Config:

@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import json
 import math
-
-import numpy as np
+import sys
 
 
 def strict(obj):
@@ -21,6 +20,9 @@ def strict(obj):
         return {k: strict(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [strict(v) for v in obj]
+    np = sys.modules.get("numpy")  # (not imported: no numpy value can exist — the light clients never load it)
+    if np is None:
+        return obj
     if isinstance(obj, np.ndarray):
         return strict(obj.tolist())
     if isinstance(obj, np.generic):

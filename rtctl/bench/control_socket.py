@@ -5,12 +5,20 @@ answering one ``status`` request (decode, validate, handler, encode, send) — t
 tick in which a request arrives — and in a connection storm: every slot taken and, before
 each poll, as many newcomers as a poll accepts, each with a frame of garbage (accept, drop the
 stalest connection, read, answer the framing error): the most a poll does.
+
+Then the operator's side: the wall time of ``rtctl status`` and ``rtctl estop`` as a user runs
+them (a new process each, 20 times, against a server polled every millisecond as the loop
+does), and of ``rtctl estop`` when no daemon listens — what an e-stop costs before it reaches
+the loop.
 """
 from __future__ import annotations
 
 import os
 import socket
+import subprocess
+import sys
 import tempfile
+import threading
 import time
 
 import numpy as np
@@ -49,9 +57,32 @@ def bench_control_socket(polls: int = 20000, requests: int = 500) -> dict:
                 client.recv(65536)
             client.close()
             storm = _time_storm(server, requests)
+            clients = _time_clients(server)
         finally:
             server.close()
-    return {"idle": idle, "idle_client": connected, "status_request": percentiles_us(ns), "storm": storm}
+    return {"idle": idle, "idle_client": connected, "status_request": percentiles_us(ns), "storm": storm,
+            "client_wall_ms": clients}
+
+
+def _time_clients(server: ControlServer, runs: int = 20) -> dict:
+    stop = threading.Event()
+    poller = threading.Thread(target=lambda: [server.poll() or time.sleep(0.001) for _ in iter(stop.is_set, True)])
+    poller.start()
+    try:
+        cases = {"status": ["status", "--socket", server.path], "estop": ["estop", "--socket", server.path],
+                 "estop, no daemon": ["estop", "--socket", server.path + ".none"]}
+        out = {}
+        for name, argv in cases.items():
+            ms = []
+            for _ in range(runs):
+                a = time.perf_counter()
+                subprocess.run([sys.executable, "-m", "rtctl.cli", *argv], capture_output=True)
+                ms.append((time.perf_counter() - a) * 1e3)
+            out[name] = {"median_ms": float(np.median(ms)), "p90_ms": float(np.percentile(ms, 90)), "max_ms": max(ms)}
+        return out
+    finally:
+        stop.set()
+        poller.join()
 
 
 def _time_storm(server: ControlServer, polls: int) -> dict:
@@ -85,4 +116,8 @@ def format_table(result: dict) -> str:
                        ("storm", f"storm: {ACCEPTS_PER_POLL} garbage newcomers/poll")):
         p = result[key]
         lines.append(f"{label:<34}{p['p50_us']:>9.2f}{p['p99_us']:>9.2f}{p['max_us']:>10.1f}")
+    lines.append(f"{'rtctl client, wall ms (20 runs)':<34}{'median':>9}{'p90':>9}{'max':>10}   goal: median ≤ 100 ms")
+    for name, c in result["client_wall_ms"].items():
+        lines.append(f"{name:<34}{c['median_ms']:>9.1f}{c['p90_ms']:>9.1f}{c['max_ms']:>10.1f}"
+                     + ("   yes" if c["median_ms"] <= 100 else "   NO"))
     return "\n".join(lines)

@@ -10,8 +10,15 @@ nothing. A connection may carry several requests in sequence.
 The daemon serves it with :class:`ControlServer` (``poll()`` once per tick, in the loop
 thread); scripts and the CLI call :func:`request`.
 """
-from rtctl.control_socket.client import request
-from rtctl.control_socket.requests import COMMANDS, MAX_REQUEST_BYTES
-from rtctl.control_socket.server import ControlServer
+from importlib import import_module
 
-__all__ = ["COMMANDS", "MAX_REQUEST_BYTES", "ControlServer", "request"]
+# imported on first use (PEP 562): the clients (`rtctl estop`) need neither the server nor numpy
+_HOME = {"request": "client", "default_socket_path": "client", "COMMANDS": "requests",
+         "MAX_REQUEST_BYTES": "requests", "ControlServer": "server"}
+__all__ = list(_HOME)
+
+
+def __getattr__(name):
+    if name not in _HOME:
+        raise AttributeError(f"module 'rtctl.control_socket' has no attribute {name!r}")
+    return getattr(import_module(f"rtctl.control_socket.{_HOME[name]}"), name)

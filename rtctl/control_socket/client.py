@@ -9,6 +9,14 @@ from rtctl.control_socket.framing import HEADER, decode, encode
 from rtctl.errors import ControlSocketError
 
 
+def default_socket_path():
+    """``$XDG_RUNTIME_DIR/rtctl.sock``, or ``/tmp/rtctl-UID.sock`` without XDG_RUNTIME_DIR."""
+    from pathlib import Path
+
+    runtime = os.environ.get("XDG_RUNTIME_DIR")
+    return Path(runtime, "rtctl.sock") if runtime else Path(f"/tmp/rtctl-{os.getuid()}.sock")
+
+
 def _recv_exactly(sock: socket.socket, n: int, path: str) -> bytes:
     data = bytearray()
     while len(data) < n:

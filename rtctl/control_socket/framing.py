@@ -2,19 +2,21 @@
 from __future__ import annotations
 
 import struct
+import sys
 from pathlib import PurePath
 
 import msgpack
-import numpy as np
 
 HEADER = struct.Struct(">I")
 
 
 def _to_builtin(obj):
-    """msgpack ``default``: numpy arrays and scalars and paths become plain values."""
-    if isinstance(obj, np.ndarray):
+    """msgpack ``default``: numpy arrays and scalars and paths become plain values (numpy
+    is not imported for it: a client that never loaded it has no numpy value to send)."""
+    np = sys.modules.get("numpy")
+    if np is not None and isinstance(obj, np.ndarray):
         return obj.tolist()
-    if isinstance(obj, np.generic):
+    if np is not None and isinstance(obj, np.generic):
         return obj.item()
     if isinstance(obj, PurePath):
         return str(obj)
