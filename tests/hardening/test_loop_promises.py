@@ -58,7 +58,7 @@ class VmStall(Exception):
     """The loop was late while serving took less than a period: the shared VM stopped it (retried)."""
 
 
-@pytest.mark.flaky(reruns=2, only_rerun=["VmStall"])
+@pytest.mark.flaky(reruns=4, only_rerun=["VmStall"])
 def test_defect_2_a_storm_of_every_command_from_3_clients_delays_no_tick_by_a_period(daemon, tmp_path):
     d = daemon(guard_config(tmp_path), "--duration", 60)
     d.wait_ready()

@@ -19,6 +19,8 @@ CHILD = textwrap.dedent("""
     from rtctl.errors import RealtimeError
     from rtctl.timing.rt import RtSettings, apply_rt, timer_slack_ns
     args = json.loads(sys.argv[1])
+    if os.sched_getscheduler(0) != os.SCHED_OTHER:  # start as a normal process, whatever ran this suite
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
     for name, value in args.pop("rlimits", {}).items():   # lowering a limit needs no privilege
         resource.setrlimit(getattr(resource, name), (value, value))
     if args.pop("drop_root", False) and os.getuid() == 0:
