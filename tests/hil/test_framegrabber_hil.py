@@ -133,8 +133,9 @@ def test_marker_observed_in_a_run_against_hil_sim(hil_sim, tmp_path):
     # every image the device completed while the loop ran was taken or counted dropped (a
     # stalled loop drops): only those completed after the loop's last read are in neither
     written = camera["device"]["written"]
-    assert written - 3 <= camera["frames"] + camera["dropped"] <= written
-    with unless_stalled(summary):
+    assert camera["frames"] + camera["dropped"] <= written
+    with unless_stalled(summary):  # (a loop stalled near its end leaves more than 3 images unread)
+        assert written - 3 <= camera["frames"] + camera["dropped"]
         assert code == 0, (summary["stop_reason"], err[-2000:])
         assert camera["frames"] >= 0.9 * 50 * 3.0 and camera["dropped"] <= 0.1 * camera["frames"]
         assert abs(lag) <= 0.025 and rms_shifted <= 1.0
