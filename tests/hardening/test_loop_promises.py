@@ -86,12 +86,14 @@ def test_defect_2_a_storm_of_every_command_from_3_clients_delays_no_tick_by_a_pe
     assert not [f for f in summary["safety"]["faults"] if f["kind"] != "estop"], summary["safety"]["faults"]
     serve = timing["compute_us"]["serve"]  # the loop's time in the control socket and the planner's pipe
     print(f"serving: p99.9 {serve['p99_9']:.0f} µs, max {serve['max']:.0f} µs; overruns {timing['overruns']}")
-    stalled = timing["overruns"] or late["max"] >= period_us / 2  # the loop's own record of a stall
+    # serving never costs a tick a period: p99.9 (the old code planned in ~5 % of the ticks, 0.3–1 s each); the
+    # single worst tick is wall time a busy VM can stretch by preempting the loop, so it counts only on a quiet run
+    assert serve["p99_9"] < period_us, f"serving took {serve['p99_9']:.0f} µs in 1 tick of 1000"
     if serve["max"] >= period_us or late["max"] >= period_us:
         why = f"serving took {serve['max']:.0f} µs in one tick, a wake-up was {late['max']:.0f} µs late"
-        if stalled:  # (serving time is wall time: a preempted loop serves slowly too)
+        if timing["overruns"] or late["max"] >= period_us / 2:  # the loop's own record of a stall
             raise VmStall(f"{why}; {timing['overruns']} overruns")
-        raise AssertionError(why)  # before: 0.3–1 s of planning in one tick
+        raise AssertionError(why)
     # the first e-stop latched in the tick that handled it (the stage acts on it at its next
     # check: tests/safety), whatever else was pending
     first = min(r["t"] for r in by_cmd["estop"])
