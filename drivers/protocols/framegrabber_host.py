@@ -92,7 +92,9 @@ class HostPort:
             raise ProtocolError(f"slot {slot}: {int(h[F_NBYTES])} bytes, its settings make {settings.frame_bytes}")
         capture_ns = int(h[F_CAPTURE])
         loop = self.m.clock == CLOCK_LOOP
-        now = round(t * 1e9) if loop else now_ns + CAPTURE_SLACK_NS
+        # the clock read now, not only the caller's: a host preempted between its read and this
+        # claim sees frames stamped after it (a slow reader failed a valid stream under load)
+        now = round(t * 1e9) if loop else max(now_ns, time.monotonic_ns()) + CAPTURE_SLACK_NS
         if not self.own[O_CAPTURE] <= capture_ns <= now:
             raise ProtocolError(f"slot {slot}: capture time {capture_ns} ns before the previous frame's "
                                 f"({self.own[O_CAPTURE]}) or after now ({now})")
