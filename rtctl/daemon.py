@@ -231,12 +231,9 @@ class Daemon:
         self._apply_rt()
         self.moves.warm()  # it loads the planners' kernels from the cache just filled
         try:
-            self.tick.trajectory = self._initial_trajectory(state.position.copy())
+            self.hand_over(self._initial_trajectory(state.position.copy()), 0.0)
         except TrajectoryError as e:  # the devices report a start the limits do not allow
             raise HardwareError(f"cannot start the trajectory from the measured position: {e}") from None
-        self.tick.trajectory.sample(0.0, self.rt.ref.q, self.rt.ref.qd, self.rt.ref.qdd)
-        for c in self.rt.controllers:
-            c.reset(state)
         for dev in self.rt.all_devices:
             try:
                 dev.activate()
@@ -246,6 +243,15 @@ class Daemon:
                  realtime_factor=self.cfg.loop.realtime_factor, devices=[d.name for d in self.rt.all_devices],
                  controllers=[c.name for c in self.rt.controllers])
         return True
+
+    def hand_over(self, trajectory, t: float) -> None:
+        """Run ``trajectory`` from time ``t`` with fresh controllers (at the start, and after a
+        ``reset``); the devices are the caller's to activate."""
+        ref = self.rt.ref
+        self.tick.trajectory = trajectory
+        trajectory.sample(t, ref.q, ref.qd, ref.qdd)
+        for c in self.rt.controllers:
+            c.reset(self.rt.state)
 
     def _warm_up_groups(self) -> list:
         """Every compiled path of this run, as groups that run it once on throwaway outputs (so

@@ -70,11 +70,8 @@ class Operator:
         d.moves.cancel("reset")
         if not d.safety.reset():
             return {"ok": False, "faults": [f.reason for f in d.safety.faults]}
-        state, ref, t = d.rt.state, d.rt.ref, d.ticker.sim_time_s
-        d.tick.trajectory = hold(state.position.copy(), t)
-        d.tick.trajectory.sample(t, ref.q, ref.qd, ref.qdd)
-        for c in d.rt.controllers:
-            c.reset(state)
+        t = d.ticker.sim_time_s
+        d.hand_over(hold(d.rt.state.position.copy(), t), t)
         for dev in d.rt.all_devices:
             try:
                 dev.activate()
