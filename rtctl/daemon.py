@@ -157,10 +157,10 @@ class Daemon:
         finally:
             if compiling is not None:
                 compiling.abort()
-            self.moves.close()
-            self.deactivate_all()
+            self.deactivate_all()  # the drives first
             for dev in self.rt.all_devices:
                 dev.close()
+            self.moves.close()
             if server is not None:
                 server.close()
             self._finish()

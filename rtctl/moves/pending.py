@@ -92,14 +92,14 @@ class Moves:
             self._conn.send(("warm",))
 
     def close(self) -> None:
-        """Stop the planner (it holds nothing to clean up) and refuse a pending move."""
+        """Stop the planner at once — it holds nothing to clean up (numba writes its cache
+        atomically), and one still loading its kernels would not read a polite request for a
+        while — and refuse a pending move."""
         self.cancel("the daemon is stopping")
         if self._process is not None:
+            self._process.kill()
+            self._process.join()
             self._conn.close()
-            self._process.join(timeout=0.5)
-            if self._process.is_alive():
-                self._process.kill()
-                self._process.join()
             self._process = self._conn = self._inbox = None
 
     # -- from the control socket's handler ----------------------------------------------
