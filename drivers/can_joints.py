@@ -47,6 +47,10 @@ Hot path: the command messages and all arrays are preallocated; the codec packs 
 messages' own ``data``. python-can still allocates a Message per received frame, and its
 socketcand and slcan ``send`` format a string per frame (unavoidable without replacing them).
 
+Once every drive has answered, a collection also takes what else is already there (a frame
+received twice, a reply no drive owed: ``extra_replies``), so nothing left in the buffer passes
+for the next tick's answer.
+
 Faults: a missing reply marks that joint not fresh; ``stale_limit`` in a row → ERROR. Malformed
 replies, frames for other ids and error frames are counted and ignored. A bus error → ERROR,
 the bus is closed and reopened every ``reconnect_interval`` for ``reconnect_timeout`` s. When
@@ -88,6 +92,7 @@ class MitCanJointGroup(CanJointGroup):
         super().__init__(name, [j.name for j in joints], bus, drive_timeout=drive_timeout,
                          reconnect_timeout=reconnect_timeout, reconnect_interval=reconnect_interval)
         n = len(joints)
+        self.counters["extra_replies"] = 0  # replies taken after every drive had answered
         self.joints, self.master_id = tuple(joints), master_id
         self.reply_timeout = reply_deadline * period
         self.stale_limit = stale_limit
@@ -294,9 +299,15 @@ class MitCanJointGroup(CanJointGroup):
     # -- frames --------------------------------------------------------------------------
     def _collect(self, timeout: float) -> int:
         """Receive until every drive answered the last frames sent or ``timeout`` s passed;
-        returns how many did not."""
+        returns how many did not. Once all have, what else already arrived is taken too: a
+        reply no drive owed (a frame received twice, another node's) left in the buffer would
+        be the next collection's answer and leave the real one behind — a period older from then
+        on, marked fresh, as a late reply would."""
         self._cycle.fill(False)
-        return self._receive(len(self._cycle), timeout, self._take_answer, self._acks_per_send)
+        missing = self._receive(len(self._cycle), timeout, self._take_answer, self._acks_per_send)
+        if not missing:
+            self._drain(self._take_extra)
+        return missing
 
     def _take_answer(self, msg) -> int:
         """1 when ``msg`` is the last reply a drive owed (its answer to the frame just sent), else 0."""
@@ -310,6 +321,12 @@ class MitCanJointGroup(CanJointGroup):
         """Decode a reply that missed its collection (its values are the newest); it answers nothing."""
         if self._take(msg) >= 0:
             self.counters["late_replies"] += 1
+        return 0
+
+    def _take_extra(self, msg) -> int:
+        """Decode a reply after every drive answered (its values are the newest); it answers nothing."""
+        if self._take(msg) >= 0:
+            self.counters["extra_replies"] += 1
         return 0
 
     def _forget_owed(self) -> None:

@@ -14,6 +14,10 @@ For every drive, in this order (each step names the drive and the object when it
    ``PdoMap.save``), RPDO1's event timer 0x1400 sub 5 as the deadline of our commands.
 5. NMT OPERATIONAL: the PDOs run (on SYNC only: nothing moves until the master sends one).
 
+The objects used here besides the PDO set are :data:`drivers.protocols.cia402.BRING_UP_OBJECTS`:
+an EDS without one of them, or whose PDO set python-canopen reads otherwise than the driver, is
+refused when the configuration is read (exit 2), not found missing half-way through this.
+
 SDO needs a receive thread: python-canopen's Network runs python-can's Notifier on the bus
 during this bring-up only (:func:`sdo_session`); it is stopped before the loop starts, so
 the loop's process runs no thread of its own while the robot moves.

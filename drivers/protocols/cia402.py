@@ -29,7 +29,7 @@ from pathlib import Path
 
 import canopen
 from canopen.emcy import EMCY_STRUCT, EmcyError
-from canopen.objectdictionary import datatypes
+from canopen.objectdictionary import ODArray, ODRecord, datatypes
 from canopen.profiles.p402 import State402
 
 EDS = Path(__file__).with_name("cia402_cst.eds")
@@ -270,3 +270,43 @@ def _mapped(od, comm, mapping, cob_base, known: dict) -> tuple[Pdo, ...]:
     if any(p.length > 8 for p in pdos):
         raise ValueError("a PDO longer than 8 bytes")
     return tuple(pdos)
+
+
+# what a master reads and writes at bring-up besides the PDO set (drivers/cia402_bringup.py): integers all
+BRING_UP_OBJECTS = ((CONTROLWORD, 0), (DEVICE_TYPE, 0), (SUPPORTED_MODES, 0), (RATED_TORQUE, 0),
+                    (ENCODER_RESOLUTION, 1), (ENCODER_RESOLUTION, 2), (MODES_OF_OPERATION, 0), (MAX_TORQUE, 0),
+                    (HEARTBEAT_TIME, 0), (RPDO_COMM, EVENT_TIMER))
+
+
+def check_bring_up(path, layout: PdoLayout, node_id: int = 1) -> None:
+    """What the bring-up takes from the EDS at ``path`` besides ``layout`` (its PDO set), checked
+    offline (ValueError naming what is wrong): every object of :data:`BRING_UP_OBJECTS` is there
+    as an integer, and python-canopen's own reading of the PDO set — which the bring-up saves into
+    the drives — is ``layout``, so the drives send the frames the driver decodes."""
+    od = canopen.import_od(str(path), node_id)
+    for index, sub in BRING_UP_OBJECTS:
+        obj = od.get(index)
+        if isinstance(obj, (ODRecord, ODArray)):
+            obj = obj.get(sub) if sub in obj else None
+        if obj is None or obj.data_type not in datatypes.INTEGER_TYPES:
+            raise ValueError(f"object {index:#06x} sub {sub}: missing, or not an integer (the bring-up sets it)")
+    node = canopen.RemoteNode(node_id, od)
+    canopen.Network().add_node(node)  # (python-canopen subscribes the PDOs it reads to a network)
+    try:
+        node.pdo.read(from_od=True)
+    except Exception as e:
+        raise ValueError(f"python-canopen cannot read its PDO set ({type(e).__name__}: {e})") from None
+    theirs = {(kind, number): [(v.index, v.length) for v in m.map]
+              for kind, maps in (("RPDO", node.rpdo.map), ("TPDO", node.tpdo.map))
+              for number, m in maps.items() if m.enabled and len(m.map)}
+    index_of = {name: index for index, name in {**COMMAND_FIELDS, **STATE_FIELDS}.items()}
+    ours = {(kind, p.number): [(index_of[f], 8 * struct.calcsize("<" + char))
+                               for f, char in zip(p.fields, p.struct.format.lstrip("<"))]
+            for kind, pdos in (("RPDO", layout.rpdos), ("TPDO", layout.tpdos)) for p in pdos}
+    if theirs != ours:
+        raise ValueError(f"python-canopen reads the PDO set as {_describe(theirs)}, the driver as {_describe(ours)}")
+
+
+def _describe(pdos: dict) -> str:
+    return "; ".join(f"{kind}{n}: " + ", ".join(f"{i:#06x}/{bits}" for i, bits in m)
+                     for (kind, n), m in sorted(pdos.items()))

@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from drivers.protocols.cia402 import EDS, PdoLayout
+from drivers.protocols.cia402 import EDS, PdoLayout, check_bring_up
 from rtctl.tomltable import Table
 
 SCALE_KEYS = ("rated_torque", "counts_per_rev")
@@ -55,9 +55,12 @@ def read_eds(t: Table) -> tuple[Path, PdoLayout]:
     if not path.is_file():
         raise t.error("eds", f"an EDS file of the drives, got {name!r} (no such file: {path})")
     try:
-        return path, PdoLayout.from_eds(path)
-    except Exception as e:  # a malformed EDS, or a PDO set the driver cannot use
-        raise t.error("eds", f"an EDS whose default PDO mapping is a CST set ({type(e).__name__}: {e})") from None
+        layout = PdoLayout.from_eds(path)
+        check_bring_up(path, layout)
+    except Exception as e:  # a malformed EDS, a PDO set the driver cannot use, an object the bring-up needs missing
+        raise t.error("eds", f"an EDS whose default PDO mapping is a CST set, with the objects the bring-up "
+                             f"sets ({type(e).__name__}: {e})") from None
+    return path, layout
 
 
 def _scale(t: Table, defaults: dict) -> dict:

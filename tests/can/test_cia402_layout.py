@@ -115,3 +115,30 @@ def test_a_missing_or_unusable_eds_is_refused(tmp_path):
         with pytest.raises(ConfigError, match=match) as e:
             read_eds(device(tmp_path / "run.toml", eds=name))
         assert e.value.key_path == "devices[0].eds"
+
+
+@pytest.mark.parametrize("section, key, value, named", [
+    ("1400sub2", None, None, "cannot read its PDO set"),  # RPDO1's transmission type: the bring-up sets it to 1
+    ("1400sub5", None, None, "0x1400 sub 5"),  # RPDO1's event timer: the bring-up sets the drives' deadline there
+    ("6076", None, None, "0x6076"),  # the rated torque the bring-up checks
+], ids=["transmission type", "rpdo deadline", "rated torque"])
+def test_an_eds_without_an_object_the_bring_up_sets_is_refused_at_configuration_not_a_keyerror_at_configure(
+        tmp_path, section, key, value, named):
+    """Found by the driver-boundary fuzzing (tests/hardening/test_driver_boundaries.py): such an
+    EDS passed `rtctl check` (its PDO set was usable), then python-canopen raised KeyError
+    in the middle of the drives' bring-up — after the bus had been opened and the
+    drives sent to PRE-OPERATIONAL — instead of exit 2 naming the key."""
+    import configparser
+
+    parser = configparser.RawConfigParser()
+    parser.optionxform = str
+    parser.read(c.EDS)
+    if key is None:
+        parser.remove_section(section)
+    else:
+        parser.set(section, key, value)
+    with (tmp_path / "x.eds").open("w") as f:
+        parser.write(f)
+    with pytest.raises(ConfigError, match=named) as e:
+        read_eds(device(tmp_path / "run.toml", eds="x.eds"))
+    assert e.value.key_path == "devices[0].eds"

@@ -288,6 +288,60 @@ def test_a_late_reply_is_not_the_next_ticks_answer_so_the_measurement_stays_one_
     assert r.counters["missing_replies"] == 2 and r.counters["late_replies"] == 2  # the stalled tick's, once
 
 
+def test_a_reply_received_twice_is_no_later_ticks_answer_so_the_measurement_stays_one_period_old(rig):
+    """A reply received twice (CAN's double reception, a replaying node): the spare copy, still
+    in the buffer when the collection had every answer, was the next collection's answer and
+    left the real one behind in its turn — from then on that joint's state was a period older
+    than the driver says, marked fresh, and a drive that fell silent read fresh one tick more
+    (found by the driver-boundary fuzzing, tests/hardening/test_driver_boundaries.py)."""
+    from drivers.protocols.mit import pack_reply
+
+    r = rig()
+    r.activate()
+    r.q[:] = 0.1
+    r.tick()  # the drives answer these commands with 0.1 …
+    r.peer.send(can.Message(arbitration_id=r.master_id, data=pack_reply(KATZ, 2, 0.1, 0.0, 0.0),
+                            is_extended_id=False))  # … and drive 2's answer comes twice
+    seen = []
+    for where in (0.3, 0.5, 0.7):  # the joints' position when each tick's commands arrive
+        r.q[:] = where
+        assert r.tick() == (Status.OK, Status.OK)
+        seen.append((r.state.position.round(3).tolist(), r.state.fresh.tolist()))
+    # each read publishes the answers to the previous tick's commands, fresh
+    assert seen == [([x, x], [True, True]) for x in (0.1, 0.3, 0.5)]
+    assert r.counters["extra_replies"] == 1 and r.counters["late_replies"] == 0
+    r.drive_list[1].faults.silent = True
+    r.tick()  # drive 2 does not answer these commands: not fresh at the next read
+    r.tick()
+    assert r.state.fresh.tolist() == [True, False]
+
+
+def test_a_reply_later_than_the_next_commands_is_not_their_answer_so_the_measurement_stays_one_period_old(slow_rig):
+    """A reply so late that it arrives after the next commands went out (the write found nothing
+    to drain) was that collection's answer, and the real one was left in the buffer to answer
+    the tick after: from then on every state was a period older than the driver says, marked
+    fresh — and, taking a spare reply at once, the collection no longer waited for, nor missed,
+    a real one (`rtctl bench can` over socketcand under load: up to 588 spare replies a run)."""
+    r = slow_rig()
+    r.activate()
+    r.tick()
+    r.hold = True
+    r.tick()  # these commands' answers are held back …
+    r.now += 0.001
+    assert r.read(r.now) == Status.OK and not r.state.fresh.any()  # … past this read's deadline
+    r.write(r.now)  # … and past this write: the next commands go out
+    r.q[:] = 0.1
+    pump(r.drives, r.peer, now=r.now)  # both commands' answers arrive now, the late ones first
+    r.hold = False
+    seen = []
+    for where in (0.3, 0.5, 0.7):  # the joints' position when each tick's commands arrive
+        r.q[:] = where
+        assert r.tick() == (Status.OK, Status.OK)
+        seen.append((r.state.position.round(3).tolist(), r.state.fresh.tolist()))
+    assert seen == [([x, x], [True, True]) for x in (0.1, 0.3, 0.5)]
+    assert r.counters["extra_replies"] == 2
+
+
 def test_a_late_reply_to_a_command_is_not_the_answer_to_exit_motor_mode(slow_rig):
     r = slow_rig()
     r.activate()

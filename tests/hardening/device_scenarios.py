@@ -6,6 +6,7 @@ from multiprocessing import shared_memory
 
 import numpy as np
 
+from boundary_framegrabber import reclaim
 from drivers.framegrabber import ShmFrameGrabber
 from drivers.protocols.framegrabber import HEADER_BYTES, W_PUBLISHED, DevicePort, GrabberMemory, buffer_bytes
 from rtctl.hal.framegrabber import GrabberSettings
@@ -23,6 +24,7 @@ def framegrabber_garbage() -> dict:
         memory = GrabberMemory(shm.buf, create=True)
         grabber = ShmFrameGrabber("camera", GRABBER_SETTINGS, shm.name)
         grabber.configure()
+        reclaim(shm)
         grabber.activate()  # programs the registers
         device = DevicePort(memory)
         gen, regs = device.registers()

@@ -6,7 +6,7 @@ from __future__ import annotations
 import in_child
 
 
-def test_garbage_in_the_framegrabbers_shared_memory_is_the_cameras_error_not_a_segfault():
+def test_a_wild_shm_slot_index_or_header_in_the_framegrabbers_memory_is_the_cameras_error_not_a_segfault():
     """Defect 1: 2^40 written into the published-slot word (or random bytes over the header)
     was used as an index by the compiled claim: SIGSEGV, exit 139, no controlled stop."""
     out = in_child.run("device_scenarios:framegrabber_garbage")

@@ -142,7 +142,7 @@ def test_marker_observed_in_a_run_against_hil_sim(hil_sim, tmp_path):
 
 
 @pytest.mark.parametrize("garbage", ["slot 2^40", "random header"])
-def test_garbage_in_the_shared_memory_is_a_controlled_stop_naming_the_camera(hil_sim, tmp_path, garbage):
+def test_a_wild_shm_slot_index_or_header_in_a_run_is_a_controlled_stop_naming_the_camera(hil_sim, tmp_path, garbage):
     """Defect 1 of issue 25: garbage written into the grabber's shared memory during a run
     killed the daemon (SIGSEGV, exit 139: no controlled stop, drives left enabled, no summary,
     the socket file left behind). Now it is the camera's fault: the run stops as after any

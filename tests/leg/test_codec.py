@@ -100,7 +100,7 @@ def test_lost_frames_are_counted_from_seq_0_and_across_the_wrap():
     assert d.counters["repeated_frames"] == d.counters["out_of_order"] == 0
 
 
-def test_a_repeated_or_backwards_frame_is_refused_not_counted_as_hundreds_lost():
+def test_a_repeated_frame_or_a_backwards_seq_is_refused_not_counted_as_hundreds_lost():
     """Defect 3 of issue 25: a proxy resent one sensor frame 1311 times; each repeat counted as
     255 lost frames (334,305 in all) and as a new frame. A repeat (step 0) and a step back
     (128…255, serial-number arithmetic) are refused: no new frame, their values not taken."""

@@ -143,7 +143,7 @@ def test_a_board_that_repeats_its_last_frame_goes_stale_and_the_safety_stage_fau
     assert c["repeated_frames"] >= 35 and c["lost_frames"] == 0 and c["frames"] <= 22, c
 
 
-def test_the_boards_watchdog_lock_while_running_is_an_error_naming_it(free_running_board):
+def test_the_boards_watchdog_status_while_running_is_an_error_naming_it(free_running_board):
     """Defect 4 of issue 25: for 4.6 s the board reported that its watchdog had locked both
     joints (no command reached it), and the run exited 0. The status is checked every tick while
     active: the lock is the device's ERROR, its reason naming the board and the watchdog."""
