@@ -6,8 +6,9 @@ written — a frame completed before it looked is neither new nor dropped (dropp
 read, both since it attached)."""
 import numpy as np
 
-from drivers.protocols.framegrabber import (CLOCK_LOOP, R_GEN, DevicePort, GrabberMemory, HostPort, buffer_bytes,
-                                            encode)
+from drivers.protocols.framegrabber import (CLOCK_LOOP, H_DROPPED, H_LAST, H_READ, R_GEN, DevicePort, GrabberMemory,
+                                            buffer_bytes, encode)
+from drivers.protocols.framegrabber_host import HostPort
 from rtctl.hal.framegrabber import GrabberSettings
 
 OLD = GrabberSettings(density=128, scan="frame", levels=256, word_bits=32)
@@ -32,25 +33,29 @@ def test_a_register_set_being_written_is_not_taken():
     assert dev.registers() == (gen + 2, encode(NEW, 2))
 
 
-def _publish(dev, words):
+def _publish(dev):
+    """One frame with the registers in force, captured at the device's sequence number in ms."""
+    gen, words = dev.registers()
     slot = dev.reserve()
-    return dev.publish(slot, 1_000_000 * dev.seq, "frame", 2, words, 0)
+    return dev.publish(slot, 1_000_000 * dev.seq, "frame", gen, words, OLD.frame_bytes)
 
 
 def test_frames_written_before_the_host_attached_are_neither_taken_nor_dropped():
     memory = GrabberMemory(np.zeros(buffer_bytes(), dtype=np.uint8), create=True, clock=CLOCK_LOOP)
+    HostPort(memory).program(OLD)  # an earlier host (an earlier run, a restarted rtctl) …
     dev = DevicePort(memory)
-    words = encode(OLD, 1)
-    for _ in range(3):  # a device that ran before this host (an earlier run, a restarted rtctl)
-        _publish(dev, words)
+    for _ in range(3):  # … whose device went on writing
+        _publish(dev)
     host = HostPort(memory)
-    assert host.take(0.0, 0) is None  # nothing new since attaching
+    assert host.take(1.0, 0) is None  # nothing new since attaching
     assert (host.read, host.dropped, host.written) == (0, 0, 0)
-    seq = _publish(dev, words)
-    frame = host.take(0.0, 0)
+    # the reader section publishes the same (layout: read, dropped, last_seq — the last frame accounted for)
+    assert memory.reader[[H_READ, H_DROPPED, H_LAST]].tolist() == [0, 0, 3]
+    seq = _publish(dev)
+    frame = host.take(1.0, 0)
     assert frame is not None and frame.seq == seq == 4
     assert (host.read, host.dropped, host.written) == (1, 0, 1)
-    _publish(dev, words)
-    _publish(dev, words)
-    assert host.take(0.0, 0).seq == 6
+    _publish(dev)
+    _publish(dev)
+    assert host.take(1.0, 0).seq == 6
     assert host.dropped == host.written - host.read == 1
