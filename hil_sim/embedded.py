@@ -25,11 +25,37 @@ from __future__ import annotations
 
 import numpy as np
 
+from rtctl.compiled import kernel
 from rtctl.hal import JointGroup, Status
 from rtctl.hal.lifecycle import Lifecycle
 from rtctl.model import load_robot
 from rtctl.model.regressor import regressor_mass_matrix
 from hil_sim.plant import Plant
+
+
+@kernel
+def measure(q, qd, tau_applied, idx, quantum, position, velocity, effort):
+    """The device's joints of the plant as its encoders see them: position floored to ``quantum``
+    (when > 0), velocity and the torque the motors produce — one call for the whole read."""
+    for k in range(idx.shape[0]):
+        j = idx[k]
+        p = q[j]
+        if quantum:
+            p = np.floor(p / quantum) * quantum
+        position[k] = p
+        velocity[k] = qd[j]
+        effort[k] = tau_applied[j]
+
+
+@kernel
+def command_torque(impedance, q_des, qd_des, kp, kd, tau_ff, position, velocity, idx, tau_cmd):
+    """The motor torque of the device's joints into the plant's ``tau_cmd``: ``tau_ff``, or the
+    impedance law closed here as a drive would, kp (q_des − q) + τ_ff + kd (q̇_des − q̇)."""
+    for k in range(idx.shape[0]):
+        tau = tau_ff[k]
+        if impedance:
+            tau = (q_des[k] - position[k]) * kp[k] + tau_ff[k] + (qd_des[k] - velocity[k]) * kd[k]
+        tau_cmd[idx[k]] = tau
 
 
 class SimPlantHub:
@@ -42,8 +68,10 @@ class SimPlantHub:
         self._written = 0
 
     def written(self) -> None:
+        """Called by each active device's write; the last one steps the plant (a device alone is
+        the last: an inactive device never writes)."""
         self._written += 1
-        if self._written >= sum(d.lifecycle is Lifecycle.ACTIVE for d in self.devices):
+        if len(self.devices) == 1 or self._written >= sum(d.lifecycle is Lifecycle.ACTIVE for d in self.devices):
             self._written = 0
             self.plant.step(self.period)
 
@@ -84,8 +112,6 @@ class SimJointGroup(JointGroup):
         self.hub = hub
         self.idx = np.asarray(joints, dtype=np.int64)
         self._noise = np.zeros(len(self.idx))
-        self._tau = np.zeros(len(self.idx))
-        self._tmp = np.zeros(len(self.idx))
         self.quantum = 2 * np.pi / hub.encoder_counts if hub.encoder_counts else 0.0
         hub.devices.append(self)
 
@@ -111,21 +137,21 @@ class SimJointGroup(JointGroup):
         return cls(device.name, names, device.joints, hub)
 
     def warm_up(self) -> None:
-        """Load the compiled plant step (a zero-length step changes nothing)."""
+        """Load the compiled plant step (a zero-length step changes nothing) and the device's own
+        kernels (on scratch arrays: the plant's are untouched)."""
         self.hub.plant.step(0.0)
+        n, c = len(self.idx), self.command
+        scratch = np.zeros(len(self.hub.plant.q))
+        measure(scratch, scratch, scratch, self.idx, 0.0, np.zeros(n), np.zeros(n), np.zeros(n))
+        command_torque(True, c.q_des, c.qd_des, c.kp, c.kd, c.tau_ff, self.state.position, self.state.velocity,
+                       self.idx, scratch)
 
     def _on_deactivate(self) -> None:
         np.put(self.hub.plant.tau_cmd, self.idx, 0.0)  # motors off
 
     def _read(self, t: float) -> Status:
         plant, s = self.hub.plant, self.state
-        np.take(plant.q, self.idx, out=s.position)
-        np.take(plant.qd, self.idx, out=s.velocity)
-        np.take(plant.tau_applied, self.idx, out=s.effort)
-        if self.quantum:
-            np.divide(s.position, self.quantum, out=s.position)
-            np.floor(s.position, out=s.position)
-            np.multiply(s.position, self.quantum, out=s.position)
+        measure(plant.q, plant.qd, plant.tau_applied, self.idx, self.quantum, s.position, s.velocity, s.effort)
         if self.hub.velocity_noise:
             self.hub.rng.standard_normal(out=self._noise)
             self._noise *= self.hub.velocity_noise
@@ -134,16 +160,8 @@ class SimJointGroup(JointGroup):
         return Status.OK
 
     def _write(self, t: float) -> Status:
-        c, s, tau = self.command, self.state, self._tau
-        if c.mode:  # impedance, closed here as a drive would: kp (q_des − q) + kd (q̇_des − q̇) + τ_ff
-            np.subtract(c.q_des, s.position, out=tau)
-            tau *= c.kp
-            tau += c.tau_ff
-            np.subtract(c.qd_des, s.velocity, out=self._tmp)
-            self._tmp *= c.kd
-            tau += self._tmp
-        else:
-            tau[:] = c.tau_ff
-        np.put(self.hub.plant.tau_cmd, self.idx, tau)
+        c, s = self.command, self.state
+        command_torque(bool(c.mode), c.q_des, c.qd_des, c.kp, c.kd, c.tau_ff, s.position, s.velocity, self.idx,
+                       self.hub.plant.tau_cmd)
         self.hub.written()
         return Status.OK

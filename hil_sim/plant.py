@@ -24,39 +24,47 @@ from rtctl.model.dynamics import Data, model_arrays
 from rtctl.model.forward_dynamics import forward_dynamics_kernel
 
 
+# The plant's per-joint vectors are the rows of one array, so that a period is one compiled call
+# with a dozen arguments rather than twenty (each array argument costs the call from Python).
+ROWS = ("q", "qd", "qdd", "tau_cmd", "tau_max", "tau_applied", "armature", "viscous", "coulomb", "tau")
+Q, QD, QDD, TAU_CMD, TAU_MAX, TAU_APPLIED, ARMATURE, VISCOUS, COULOMB, TAU = range(len(ROWS))
+
+
 @kernel
-def plant_step(joint, geom, params, gravity, X, body, Ic, H, q, qd, qdd, tau_cmd, tau_max, tau_applied,
-               armature, viscous, coulomb, coulomb_velocity, tau, dt, substeps):
+def _acceleration(joint, geom, params, gravity, X, body, Ic, H, rows, q, qd, coulomb_velocity):
+    """q̈ of the plant at (q, q̇) under the held motor torque, into ``rows[QDD]``."""
+    tau, tau_applied, viscous, coulomb = rows[TAU], rows[TAU_APPLIED], rows[VISCOUS], rows[COULOMB]
+    for i in range(q.shape[0]):
+        tau[i] = tau_applied[i] - viscous[i] * qd[i] - coulomb[i] * math.tanh(qd[i] / coulomb_velocity)
+    forward_dynamics_kernel(joint, geom, params, gravity, X, body, Ic, H, q, qd, tau, rows[ARMATURE], rows[QDD])
+
+
+@kernel
+def plant_step(joint, geom, params, gravity, X, body, Ic, H, rows, coulomb_velocity, dt, substeps):
+    """One period of semi-implicit Euler steps; ``rows``: the plant's vectors (``ROWS``)."""
+    q, qd, qdd, tau = rows[Q], rows[QD], rows[QDD], rows[TAU]
+    tau_applied, viscous, coulomb = rows[TAU_APPLIED], rows[VISCOUS], rows[COULOMB]
     n = q.shape[0]
     for i in range(n):
-        tau_applied[i] = min(max(tau_cmd[i], -tau_max[i]), tau_max[i])
+        tau_applied[i] = min(max(rows[TAU_CMD, i], -rows[TAU_MAX, i]), rows[TAU_MAX, i])
     h = dt / substeps
     for _ in range(substeps):
         for i in range(n):
-            tau[i] = (tau_applied[i] - viscous[i] * qd[i]
-                      - coulomb[i] * math.tanh(qd[i] / coulomb_velocity))
-        forward_dynamics_kernel(joint, geom, params, gravity, X, body, Ic, H, q, qd, tau, armature, qdd)
+            tau[i] = tau_applied[i] - viscous[i] * qd[i] - coulomb[i] * math.tanh(qd[i] / coulomb_velocity)
+        forward_dynamics_kernel(joint, geom, params, gravity, X, body, Ic, H, q, qd, tau, rows[ARMATURE], qdd)
         for i in range(n):
             qd[i] += h * qdd[i]
             q[i] += h * qd[i]
 
 
 @kernel
-def _acceleration(joint, geom, params, gravity, X, body, Ic, H, q, qd, tau_applied, armature, viscous, coulomb,
-                  coulomb_velocity, tau, qdd):
-    for i in range(q.shape[0]):
-        tau[i] = tau_applied[i] - viscous[i] * qd[i] - coulomb[i] * math.tanh(qd[i] / coulomb_velocity)
-    forward_dynamics_kernel(joint, geom, params, gravity, X, body, Ic, H, q, qd, tau, armature, qdd)
-
-
-@kernel
-def plant_step_rk4(joint, geom, params, gravity, X, body, Ic, H, q, qd, qdd, tau_cmd, tau_max, tau_applied,
-                   armature, viscous, coulomb, coulomb_velocity, tau, dt, substeps, stage):
+def plant_step_rk4(joint, geom, params, gravity, X, body, Ic, H, rows, coulomb_velocity, dt, substeps, stage):
     """As :func:`plant_step` with classical RK4 steps; ``stage``: scratch (4, n) for the stage
     position, velocity and the accumulated increments."""
+    q, qd, qdd = rows[Q], rows[QD], rows[QDD]
     n = q.shape[0]
     for i in range(n):
-        tau_applied[i] = min(max(tau_cmd[i], -tau_max[i]), tau_max[i])
+        rows[TAU_APPLIED, i] = min(max(rows[TAU_CMD, i], -rows[TAU_MAX, i]), rows[TAU_MAX, i])
     h = dt / substeps
     qs, vs, dq, dv = stage[0], stage[1], stage[2], stage[3]
     weights = (1.0, 2.0, 2.0, 1.0)
@@ -65,8 +73,7 @@ def plant_step_rk4(joint, geom, params, gravity, X, body, Ic, H, q, qd, qdd, tau
         for i in range(n):
             qs[i], vs[i], dq[i], dv[i] = q[i], qd[i], 0.0, 0.0
         for s in range(4):
-            _acceleration(joint, geom, params, gravity, X, body, Ic, H, qs, vs, tau_applied, armature, viscous,
-                          coulomb, coulomb_velocity, tau, qdd)
+            _acceleration(joint, geom, params, gravity, X, body, Ic, H, rows, qs, vs, coulomb_velocity)
             w = weights[s]
             for i in range(n):
                 dq[i] += w * vs[i]
@@ -96,30 +103,27 @@ class Plant:
         self.substeps = int(substeps)
         self.arrays = model_arrays(model)
         self.data = Data(model)
+        self.rows = np.zeros((len(ROWS), n))
+        for i, name in enumerate(ROWS):  # each vector a view of its row, for the devices and tests
+            setattr(self, name if name != "tau" else "_tau", self.rows[i])
         motors = model.motors
-        zeros = np.zeros(n)
-        self.armature = motors.armature.copy() if motors is not None and armature else zeros.copy()
-        self.viscous = motors.viscous * friction_scale if motors is not None else zeros.copy()
-        self.coulomb = motors.coulomb * friction_scale if motors is not None else zeros.copy()
+        if motors is not None:
+            if armature:
+                self.armature[:] = motors.armature
+            self.viscous[:] = motors.viscous * friction_scale
+            self.coulomb[:] = motors.coulomb * friction_scale
         self.coulomb_velocity = float(coulomb_velocity)
-        self.tau_max = np.where(np.isfinite(model.tau_max), model.tau_max, 1e300)
-        self.q = np.zeros(n) if q0 is None else np.array(q0, dtype=float)
-        self.qd = np.zeros(n)
-        self.qdd = np.zeros(n)
-        self.tau_cmd = np.zeros(n)  # written by the devices every tick
-        self.tau_applied = np.zeros(n)  # what the motors produced (after clamping)
-        self._tau = np.zeros(n)
+        self.tau_max[:] = np.where(np.isfinite(model.tau_max), model.tau_max, 1e300)
+        if q0 is not None:
+            self.q[:] = q0
         self.time = 0.0
+        a, d = self.arrays, self.data
+        self._model_args = (a.joint, a.geom, a.params, a.gravity, d.X, d.body, d.Ic, d.H, self.rows)
 
     def step(self, dt: float) -> None:
         """Advance by ``dt`` with the torques in ``tau_cmd`` held (zero-order hold)."""
-        a, d = self.arrays, self.data
         if self.integrator == "rk4":
-            plant_step_rk4(a.joint, a.geom, a.params, a.gravity, d.X, d.body, d.Ic, d.H, self.q, self.qd, self.qdd,
-                           self.tau_cmd, self.tau_max, self.tau_applied, self.armature, self.viscous, self.coulomb,
-                           self.coulomb_velocity, self._tau, dt, self.substeps, self._stage)
+            plant_step_rk4(*self._model_args, self.coulomb_velocity, dt, self.substeps, self._stage)
         else:
-            plant_step(a.joint, a.geom, a.params, a.gravity, d.X, d.body, d.Ic, d.H, self.q, self.qd, self.qdd,
-                       self.tau_cmd, self.tau_max, self.tau_applied, self.armature, self.viscous, self.coulomb,
-                       self.coulomb_velocity, self._tau, dt, self.substeps)
+            plant_step(*self._model_args, self.coulomb_velocity, dt, self.substeps)
         self.time += dt

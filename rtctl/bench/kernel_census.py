@@ -1,0 +1,95 @@
+"""Which compiled kernels a run calls from Python, how often, and what they cost alone.
+
+:class:`KernelCensus` replaces every numba dispatcher reachable as a module global of rtctl,
+hil_sim or drivers by a counting wrapper that also keeps a copy of the last arguments it saw.
+After a run under the census, :meth:`KernelCensus.cost_per_tick` calls each kernel directly on
+those arguments (reset to the captured values before every batch, so a plant step or an
+adaptation law does not drift) and sums ``calls per tick × median µs per call``: the compiled
+floor under the tick — what it would cost with no Python between the kernels. Kernels called
+by other kernels are part of their caller's time; numpy's own functions are not counted.
+"""
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+from numba.core.registry import CPUDispatcher
+
+PACKAGES = ("rtctl", "hil_sim", "drivers")
+
+
+def _copy(value):
+    if isinstance(value, np.ndarray):
+        return value.copy()
+    if isinstance(value, tuple):
+        return tuple(_copy(v) for v in value)
+    return value
+
+
+def _restore(work, saved) -> None:
+    for w, s in zip(work, saved):
+        if isinstance(w, np.ndarray):
+            np.copyto(w, s)
+        elif isinstance(w, tuple):
+            _restore(w, s)
+
+
+class _Counted:
+    __slots__ = ("kernel", "calls", "args")
+
+    def __init__(self, kernel):
+        self.kernel, self.calls, self.args = kernel, 0, None
+
+    def __call__(self, *args):  # the kernels are called positionally
+        self.calls += 1
+        self.args = args  # copied once, at the end of the run (a copy per call would be the run's cost)
+        return self.kernel(*args)
+
+
+class KernelCensus:
+    def __init__(self):
+        self._patched: list[tuple[object, str, CPUDispatcher]] = []
+        self.counted: dict[int, _Counted] = {}
+
+    def __enter__(self) -> "KernelCensus":
+        for name, module in list(sys.modules.items()):
+            if module is None or name.split(".")[0] not in PACKAGES:
+                continue
+            for attr, value in list(vars(module).items()):
+                if isinstance(value, CPUDispatcher):
+                    counted = self.counted.setdefault(id(value), _Counted(value))
+                    setattr(module, attr, counted)
+                    self._patched.append((module, attr, value))
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for module, attr, value in self._patched:
+            setattr(module, attr, value)
+        self._patched.clear()
+        for c in self.counted.values():  # arguments as they stood after the last call: a tick's arrays
+            c.args = None if c.args is None else _copy(c.args)
+
+    def cost_per_tick(self, ticks: int, batch: int = 20, batches: int = 50) -> dict:
+        """{"kernels": {name: {"calls_per_tick", "us_per_call", "us_per_tick"}}, "total_us"} for the
+        kernels called at least once every 100 ticks (fewer calls are start-up and warm-up)."""
+        rows, total = {}, 0.0
+        for c in self.counted.values():
+            per_tick = c.calls / max(ticks, 1)
+            if c.args is None or c.calls * 100 < ticks:
+                continue
+            work = _copy(c.args)
+            fn = c.kernel
+            fn(*work)
+            samples = []
+            for _ in range(batches):
+                _restore(work, c.args)
+                t0 = time.perf_counter_ns()
+                for _ in range(batch):
+                    fn(*work)
+                samples.append((time.perf_counter_ns() - t0) / batch / 1e3)
+            us = float(np.median(samples))
+            rows[fn.py_func.__qualname__] = {"calls_per_tick": per_tick, "us_per_call": us,
+                                             "us_per_tick": per_tick * us}
+            total += per_tick * us
+        return {"kernels": dict(sorted(rows.items(), key=lambda kv: -kv[1]["us_per_tick"])), "total_us": total}
