@@ -6,7 +6,7 @@ import time
 import numpy as np
 
 from rtctl.errors import ConfigError, GuardError
-from rtctl.guard.feasibility import point_violation
+from rtctl.guard.feasibility import format_q, point_violation
 from rtctl.guard.motion import plan_route, route_trajectory
 
 
@@ -17,10 +17,6 @@ def sim_start(cfg):
         return None
     q0 = cfg.sim.data.get("initial_q")
     return np.clip(np.zeros(cfg.model.nq), cfg.model.q_min, cfg.model.q_max) if q0 is None else np.asarray(q0, float)
-
-
-def _fmt(q, deg) -> str:
-    return "[" + ", ".join(f"{x:.4g}" for x in (np.degrees(q) if deg else q)) + "]"
 
 
 def check_lines(cfg, limits) -> list[str]:
@@ -44,14 +40,14 @@ def check_lines(cfg, limits) -> list[str]:
     if start is None:
         lines.append("guard: the start is measured at run time; legs from waypoint 0 on:")
         waypoints = waypoints[1:]
-    route = plan_route(scene, origin, waypoints, resolution=g.resolution, what="waypoint")
+    route = plan_route(scene, origin, waypoints, resolution=g.resolution, max_nodes=g.plan_budget, what="waypoint")
     first = 0 if start is not None else 1
     for i, leg in enumerate(route.legs):
         name = f"leg {'start' if i + first == 0 else i + first - 1} → {i + first}"
         if leg.crossing is None:
             lines.append(f"  {name}: straight, clear")
             continue
-        corners = "; ".join(_fmt(p, False) for p in leg.path[1:-1])
+        corners = "; ".join(format_q(p) for p in leg.path[1:-1])
         lines.append(f"  {name}: the straight path {leg.crossing}; bypass ({leg.method}, "
                      f"{leg.length:.4g} rad instead of {np.linalg.norm(leg.path[-1] - leg.path[0]):.4g}) via {corners}")
     durations = cfg.trajectory.durations
@@ -94,10 +90,20 @@ def plan(args) -> int:
     else:
         raise ConfigError("<command line>", "--to", "a target (this configuration has no [trajectory])")
     scene, unit = cfg.guard.scene, "deg" if args.deg else "rad"
-    print(f"start  {_fmt(start, args.deg)} {unit}")
+    deg = cfg.model.joint_types == 0 if args.deg else None  # the joints every position is shown in degrees
+
+    def show(q) -> str:
+        return f"{format_q(q, deg)} {unit}"
+
+    def length(path) -> float:  # in the unit shown
+        shown = path if deg is None else np.where(deg, np.degrees(path), path)
+        return float(np.linalg.norm(np.diff(shown, axis=0), axis=1).sum())
+
+    print(f"start  {show(start)}")
     t0 = time.perf_counter()
     try:
-        route = plan_route(scene, start, targets, resolution=cfg.guard.resolution, what="target")
+        route = plan_route(scene, start, targets, resolution=cfg.guard.resolution, max_nodes=cfg.guard.plan_budget,
+                           what="target", deg=deg)
     except GuardError as e:
         print(f"no path: {e} (searched in {(time.perf_counter() - t0) * 1e3:.1f} ms)")
         if args.plot:
@@ -107,13 +113,14 @@ def plan(args) -> int:
     trajectory, smooth = route_trajectory(scene, route, _trajectory_limits(cfg),
                                           smooth=cfg.trajectory.smooth if "--to" not in points else False)
     for i, leg in enumerate(route.legs):
-        straight = float(np.linalg.norm(leg.path[-1] - leg.path[0]))
-        print(f"target {_fmt(leg.path[-1], args.deg)} {unit}: " +
-              ("straight, clear" if leg.crossing is None else f"the straight path {leg.crossing}") +
-              f"\n  path ({leg.method}, {len(leg.path)} points, {leg.length:.4g} rad; straight {straight:.4g} rad):")
+        straight = length(leg.path[[0, -1]])
+        print(f"target {show(leg.path[-1])}: " +
+              ("straight, clear" if leg.crossing is None else f"the straight path {leg.crossing.describe(deg)}") +
+              f"\n  path ({leg.method}, {len(leg.path)} points, {length(leg.path):.4g} {unit}; "
+              f"straight {straight:.4g} {unit}):")
         for p in leg.path[1:]:
-            print(f"    {_fmt(p, args.deg)}")
-    print(f"planned in {ms:.1f} ms; {route.length:.4g} rad in all, moves in {trajectory.duration:.3f} s "
+            print(f"    {format_q(p, deg)}")
+    print(f"planned in {ms:.1f} ms; {length(route.points):.4g} {unit} in all, moves in {trajectory.duration:.3f} s "
           f"({'smooth' if smooth else 'stopping at every point'})")
     if args.plot:
         _plot(cfg, start, targets[-1], route.points, args.plot, asked=np.vstack([start, targets]))

@@ -12,6 +12,7 @@ run configuration may add zones of its work cell and sets how the guard acts::
                                   # (default: the trajectory's acceleration limits)
     resolution = 2.0              # the n-D planner's grid step
     move_budget = 2000            # grid nodes a `move` may search inside the loop
+    plan_budget = 100000          # grid nodes `plan`, `check` and `run` may search per leg
 
     [[guard.zones]]
     name = "forearm_vs_pedestal"  # unique; named by every report and event
@@ -37,6 +38,7 @@ from rtctl.tomltable import Table, load_toml
 
 DEFAULT_MARGIN = 0.05  # rad
 DEFAULT_MOVE_BUDGET = 2000
+DEFAULT_PLAN_BUDGET = 100_000  # ≈ 5-6 s of grid search on the 2-core VM: an offline plan always answers
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,6 +49,7 @@ class GuardConfig:
     deceleration: np.ndarray | None  # per joint; None: the trajectory's acceleration limits
     resolution: float
     move_budget: int
+    plan_budget: int
 
 
 def load_guard(run: Table | None, robot_file: Path, model) -> GuardConfig | None:
@@ -72,6 +75,7 @@ def load_guard(run: Table | None, robot_file: Path, model) -> GuardConfig | None
             "deceleration": _deceleration(run, model, scale),
             "resolution": run.float("resolution", DEFAULT_RESOLUTION / ang, positive=True) * ang,
             "move_budget": run.int("move_budget", DEFAULT_MOVE_BUDGET, min=1),
+            "plan_budget": run.int("plan_budget", DEFAULT_PLAN_BUDGET, min=1),
         }
         zones += _zones(run, model, scale)
         if settings["guard_margin"] > 0.5 * margin:
@@ -87,7 +91,7 @@ def load_guard(run: Table | None, robot_file: Path, model) -> GuardConfig | None
     scene = Scene(tuple(z for z, _ in zones), model.q_min, model.q_max, margin, model.joint_names)
     return GuardConfig(scene, settings.get("guard_margin", 0.2 * margin), settings.get("action", "stop"),
                        settings.get("deceleration"), settings.get("resolution", DEFAULT_RESOLUTION),
-                       settings.get("move_budget", DEFAULT_MOVE_BUDGET))
+                       settings.get("move_budget", DEFAULT_MOVE_BUDGET), settings.get("plan_budget", DEFAULT_PLAN_BUDGET))
 
 
 def _robot_guard(robot_file: Path):

@@ -27,12 +27,25 @@ class Violation:
     inside: bool = True
 
     def __str__(self) -> str:
-        q = f"q = [{', '.join(f'{x:.4g}' for x in self.q)}]"
+        return self.describe()
+
+    def describe(self, deg=None) -> str:
+        """The reason in words; ``deg`` (a per-joint bool mask, the revolute joints) shows those
+        joints in degrees, as a command asked in degrees answers."""
+        q = f"q = {format_q(self.q, deg)}" + ("" if deg is None else " deg")
         if self.what.endswith(" limit"):
             return f"past the {self.what} at {q}"
         if self.at is None:
             return f"{'inside' if self.inside else 'within the margin of'} zone {self.what!r} at {q}"
         return f"{'enters' if self.inside else 'comes within the margin of'} zone {self.what!r} at {q}"
+
+
+def format_q(q, deg=None) -> str:
+    """``[…]`` of joint positions in rad (m for prismatic joints), the joints of the mask ``deg``
+    in degrees."""
+    q = np.asarray(q, dtype=float)
+    shown = q if deg is None else np.where(deg, np.degrees(q), q)
+    return "[" + ", ".join(f"{x:.4g}" for x in shown) + "]"
 
 
 def _vector(scene: Scene, q, name: str) -> np.ndarray:

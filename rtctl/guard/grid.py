@@ -3,8 +3,10 @@
 The grid over joints J is anchored at the start: nodes start_J + k·h (k ∈ ℤ^|J|) within the
 joint limits. A node is free when it is outside every zone inflated by the margin; an edge
 joins two nodes one step apart along one axis and is free when its segment is (exact
-Cyrus–Beck test); the goal is reached from a free node within h of it (∞-norm) whose segment
-to the goal is free. Nodes and edges are checked lazily, when the search reaches them.
+Cyrus–Beck test); the goal is reached from a free node within h of it (∞-norm over J) whose
+segment to the goal is free. Only the joints J are searched: the others stay at the start's
+values on the grid (the group's zones do not involve them), so the goal test and the last
+segment compare J alone — the start's values elsewhere never equal the goal's. Nodes and edges are checked lazily, when the search reaches them.
 
 **Completeness at resolution h**: :func:`astar` searches this finite graph exhaustively, so it
 returns a path whenever the graph holds one (the tests compare it with breadth-first search
@@ -36,6 +38,8 @@ class Grid:
         self.k_lo = np.ceil((np.asarray(lo, float) - origin) / self.h - 1e-9).astype(int)
         self.k_hi = np.floor((np.asarray(hi, float) - origin) / self.h + 1e-9).astype(int)
         self._free: dict[tuple, bool] = {}
+        self._goal_here = self.start.copy()  # the goal's J values on the grid's plane through the start
+        self._goal_here[self.joints] = self.goal[self.joints]
 
     @property
     def origin(self) -> tuple:
@@ -68,7 +72,8 @@ class Grid:
 
     def reaches_goal(self, key) -> bool:
         x = self.point(key)
-        return bool(np.max(np.abs(x - self.goal)) <= self.h * (1 + 1e-9)) and self._segment_free(x, self.goal)
+        near = np.max(np.abs(x[self.joints] - self.goal[self.joints])) <= self.h * (1 + 1e-9)
+        return bool(near) and self._segment_free(x, self._goal_here)
 
     def heuristic(self, key) -> float:
         """Admissible and consistent for unit steps: goal nodes lie within h of the goal per axis."""

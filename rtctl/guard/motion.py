@@ -41,13 +41,13 @@ class Route:
 
 
 def plan_route(scene: Scene, start, waypoints, *, resolution: float = DEFAULT_RESOLUTION,
-               max_nodes: int | None = None, what: str = "waypoint") -> Route:
+               max_nodes: int | None = None, what: str = "waypoint", deg=None) -> Route:
     """Plan every leg start → waypoints[0] → …; :class:`GuardError` naming the first leg that
-    has no path (``what`` names the points in the message)."""
+    has no path (``what`` names the points in the message; ``deg`` as :func:`plan_path` takes it)."""
     W = np.atleast_2d(np.asarray(waypoints, dtype=float))
     points, flags, legs = [np.asarray(start, dtype=float)], [True], []
     for i, target in enumerate(W):
-        plan: Plan = plan_path(scene, points[-1], target, resolution=resolution, max_nodes=max_nodes)
+        plan: Plan = plan_path(scene, points[-1], target, resolution=resolution, max_nodes=max_nodes, deg=deg)
         if not plan.found:
             origin = "the start" if i == 0 else f"{what} {i - 1}"
             raise GuardError(f"{what} {i}: cannot go there from {origin}: {plan.reason}")

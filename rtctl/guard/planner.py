@@ -47,8 +47,11 @@ class Plan:
         return 0.0 if self.path is None else float(np.linalg.norm(np.diff(self.path, axis=0), axis=1).sum())
 
 
-def plan_path(scene: Scene, q0, q1, *, resolution: float = DEFAULT_RESOLUTION, max_nodes: int | None = None) -> Plan:
-    """Plan from ``q0`` to ``q1`` around the zones (see the module doc)."""
+def plan_path(scene: Scene, q0, q1, *, resolution: float = DEFAULT_RESOLUTION, max_nodes: int | None = None,
+              deg=None) -> Plan:
+    """Plan from ``q0`` to ``q1`` around the zones (see the module doc). ``max_nodes``: the grid
+    search's budget (None: unbounded); ``deg``: a per-joint mask of the joints the reason shows in
+    degrees (see :meth:`Violation.describe`)."""
     q0, q1 = (np.asarray(q, dtype=float) for q in (q0, q1))
     for name, q in (("q0", q0), ("q1", q1)):
         if q.shape != (scene.n,) or not np.all(np.isfinite(q)):
@@ -57,10 +60,10 @@ def plan_path(scene: Scene, q0, q1, *, resolution: float = DEFAULT_RESOLUTION, m
         raise ValueError(f"resolution must be > 0, got {resolution!r}")
     bad = point_violation(scene, q0, margin=0.0)
     if bad is not None:
-        return Plan(False, None, "none", f"the start is {bad}")
+        return Plan(False, None, "none", f"the start is {bad.describe(deg)}")
     bad = point_violation(scene, q1)
     if bad is not None:
-        return Plan(False, None, "none", f"the target is {bad}")
+        return Plan(False, None, "none", f"the target is {bad.describe(deg)}")
     margin = min(scene.margin, max(0.0, 0.99 * k.clearance(*scene.tables(), q0)[0] - 2e-9))  # see plan_inflation
     crossing = segment_violation(scene, q0, q1, margin)
     if crossing is None:

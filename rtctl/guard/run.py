@@ -49,7 +49,7 @@ def initial_trajectory(cfg, q0, limits):
     """The configured trajectory from the measured start, around the zones (GuardError if a
     leg has no path)."""
     tcfg, g = cfg.trajectory, cfg.guard
-    route = plan_route(g.scene, q0, tcfg.waypoints, resolution=g.resolution)
+    route = plan_route(g.scene, q0, tcfg.waypoints, resolution=g.resolution, max_nodes=g.plan_budget)
     trajectory, smooth = route_trajectory(g.scene, route, limits, smooth=tcfg.smooth, dwell=tcfg.dwell,
                                           durations=tcfg.durations)
     bypassed = [i for i, leg in enumerate(route.legs) if leg.crossing is not None]
