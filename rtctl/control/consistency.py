@@ -21,11 +21,18 @@ With d the unrelaxed step, every π in H_x (so the true parameters) satisfies
 ‖π̂⁺ − π‖²_{P⁻¹} ≤ ‖π̂ − π‖²_{P⁻¹} − ρ(2 − ρ) ‖d‖²_{P⁻¹} (a relaxed projection onto a convex
 set containing π is Fejér-monotone). So a correction can
 only lower the parameter part ½ π̃ᵀ P⁻¹ π̃ of V: the Lyapunov argument survives, whatever the
-number of corrections. They repeat, at most ``MAX_CORRECTIONS`` times per call, until
+number of corrections, and whatever unit x with xᵀ P(π̂) x < 0 is used. They repeat, at most ``MAX_CORRECTIONS`` times per call, until
 λ_min(P(π̂)) ≥ −TOLERANCE · |tr P(π̂)|. Over-relaxation lands inside the set: an Euler step's
 small violation takes one to three corrections; a grossly inconsistent π̂ (tests: random factors
 in [−1.5, 2.5] on every parameter) up to a few dozen, so a single call may stop short and the
 next tick continues (sequences of half-space projections approach C without a finite bound).
+
+**What a tick costs.** A Cholesky factorisation of P(π̂) + TOLERANCE·|tr|·1 decides first (some
+40 flops): a consistent link needs nothing else. A link the adaptation pushes out of C is
+usually pushed out the same way as on the previous tick, so the previous cut direction, kept
+per link, is tried first: while it still gives xᵀ P(π̂) x < 0, H_x is a valid half-space and
+no eigenvector is needed. Only when it does not is the Jacobi eigen-solver run (~1 µs; in the
+C* job at 1 kHz the adaptation pushes several links out on most ticks).
 """
 from __future__ import annotations
 
@@ -66,6 +73,26 @@ def quadratic_form_gradient(x, out):
     out[9] = 0.5 * (x0 * x0 + x1 * x1 - x2 * x2)
 
 
+@leaf
+def positive_definite4(A, shift, L):
+    """Whether A + shift·1 (symmetric 4×4) is positive definite: a Cholesky factorisation into
+    the scratch ``L`` that fails on a pivot that is not > 0 (or not a number). Some 40 flops
+    against the Jacobi sweeps' thousands: the test every consistent link takes."""
+    for j in range(4):
+        d = A[j, j] + shift
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        L[j, j] = math.sqrt(d)
+        for i in range(j + 1, 4):
+            x = A[i, j]
+            for k in range(j):
+                x -= L[i, k] * L[j, k]
+            L[i, j] = x / L[j, j]
+    return True
+
+
 @kernel
 def symmetric_eigen4(A, V):
     """Cyclic Jacobi on the symmetric 4×4 ``A`` (destroyed): eigenvalues on its diagonal,
@@ -103,24 +130,34 @@ def symmetric_eigen4(A, V):
 
 
 @kernel
-def project_link(p, gamma, A, V, a):
+def project_link(p, gamma, A, V, a, x):
     """Move one link's π̂ (``p``, in place) towards C by relaxed P⁻¹-metric half-space
-    projections (module docstring); A, V (4, 4) and a (10,) scratch. Returns the number of
-    corrections made."""
+    projections (module docstring). ``x`` (4,): the link's last cut direction, kept between
+    calls (zeros: none yet) — tried before any eigenvector and replaced when it no longer cuts;
+    A, V (4, 4) and a (10,) scratch. Returns the number of corrections made."""
     for count in range(MAX_CORRECTIONS + 1):
         pseudo_inertia(p, A)
-        trace = A[0, 0] + A[1, 1] + A[2, 2] + A[3, 3]
-        symmetric_eigen4(A, V)
-        low = 0
-        for k in range(1, 4):
-            if A[k, k] < A[low, low]:
-                low = k
-        if A[low, low] >= -TOLERANCE * abs(trace) or count == MAX_CORRECTIONS:
+        bound = -TOLERANCE * abs(A[0, 0] + A[1, 1] + A[2, 2] + A[3, 3])
+        if positive_definite4(A, -bound, V) or count == MAX_CORRECTIONS:  # λ_min > bound: nothing to correct
             return count
-        quadratic_form_gradient(V[:, low], a)
-        value, norm = 0.0, 0.0
+        quadratic_form_gradient(x, a)
+        value = 0.0
         for k in range(10):
-            value += a[k] * p[k]
+            value += a[k] * p[k]  # = xᵀ P(π̂) x
+        if not value < bound:  # the last cut no longer cuts: the eigenvector of λ_min
+            symmetric_eigen4(A, V)
+            low = 0
+            for k in range(1, 4):
+                if A[k, k] < A[low, low]:
+                    low = k
+            if A[low, low] >= bound:
+                return count
+            for k in range(4):
+                x[k] = V[k, low]
+            quadratic_form_gradient(x, a)
+            value = A[low, low]
+        norm = 0.0
+        for k in range(10):
             norm += a[k] * gamma[k] * a[k]
         if norm == 0.0:  # a zero gain freezes the link: nothing may move it
             return count
@@ -130,9 +167,10 @@ def project_link(p, gamma, A, V, a):
 
 
 @kernel
-def project_consistent(params, gamma, A, V, a):
-    """:func:`project_link` for every link; returns the total number of corrections."""
+def project_consistent(params, gamma, A, V, a, cuts):
+    """:func:`project_link` for every link (``cuts`` (n, 4): their last cut directions);
+    returns the total number of corrections."""
     total = 0
     for i in range(params.shape[0]):
-        total += project_link(params[i], gamma[i], A, V, a)
+        total += project_link(params[i], gamma[i], A, V, a, cuts[i])
     return total

@@ -40,7 +40,8 @@ import numpy as np
 from rtctl.control.base import Controller
 from rtctl.control.gains import per_joint
 from rtctl.control.slotine_li_kernels import ARMATURE, CLASSIC, COULOMB, COULOMB_VELOCITY, CSTAR, \
-    DEAD_ZONE, KD, LAM, LAW, MOTOR, PROJECT, STEP, TAU, VISCOUS, WORK_ROWS, slotine_li_update_kernel
+    DEAD_ZONE, KD, LAM, LAW, MOTOR, PROJECT, STEP, TAU, VISCOUS, CUT_ROW, slotine_li_update_kernel, \
+    work_rows
 from rtctl.model.data import BODY_SLOTS
 from rtctl.model.dynamics import model_arrays
 
@@ -134,8 +135,8 @@ class SlotineLi(Controller):
         self.arrays = model_arrays(model)
         self.signals = np.zeros((4, n))  # q̇_r, q̈_r, s, τ
         self.qdr, self.qddr, self.s, self.tau = self.signals
-        self._work = (np.zeros((n, 4, 3)), np.zeros((n, BODY_SLOTS, 6)), np.zeros((WORK_ROWS, 10)))
-        self._scratch = (np.zeros((n, 4, 3)), np.zeros((n, BODY_SLOTS, 6)), np.zeros((WORK_ROWS, 10)),
+        self._work = (np.zeros((n, 4, 3)), np.zeros((n, BODY_SLOTS, 6)), np.zeros((work_rows(n), 10)))
+        self._scratch = (np.zeros((n, 4, 3)), np.zeros((n, BODY_SLOTS, 6)), np.zeros((work_rows(n), 10)),
                          np.zeros(6), np.zeros((4, n)), np.zeros((n, 10)))
         self._t_prev = np.nan
         self.internals = {"params_hat": self.params_hat.reshape(-1), "s": self.s}
@@ -182,6 +183,7 @@ class SlotineLi(Controller):
         """Restore π̂(0); the next update starts a fresh integration."""
         self.params_hat[:] = self.params0
         self.params_dot[:] = 0.0
+        self._work[2][CUT_ROW:] = 0.0  # the projection's remembered cut directions
         self._t_prev = np.nan
 
     def update(self, t, state, ref, command):

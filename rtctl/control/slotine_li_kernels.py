@@ -129,7 +129,11 @@ def euler_step(params, params_dot, h):
 LAW, STEP, PROJECT, MOTOR, COULOMB_VELOCITY, DEAD_ZONE = range(6)  # settings (6,) float
 LAM, KD, ARMATURE, VISCOUS, COULOMB = range(5)  # gains (5, n)
 QDR, QDDR, SLIDING, TAU = range(4)  # signals (4, n)
-WORK_ROWS = 13  # work (13, 10): φ rows 0–3, a row 4, A rows 5–8, V rows 9–12
+CUT_ROW = 13  # work (13 + n, 10): φ rows 0–3, a row 4, A rows 5–8, V rows 9–12, then per link its last cut (cols 0–3)
+
+
+def work_rows(n: int) -> int:
+    return CUT_ROW + n
 
 
 @kernel
@@ -143,7 +147,7 @@ def slotine_li_update_kernel(settings, joint, geom, params, gravity, gains, gamm
     if h > 0.0:
         euler_step(params, params_dot, h)
         if settings[PROJECT] != 0.0:
-            project_consistent(params, gamma, work[5:9, 0:4], work[9:13, 0:4], work[4])
+            project_consistent(params, gamma, work[5:9, 0:4], work[9:13, 0:4], work[4], work[CUT_ROW:, 0:4])
     slotine_li_kernel(int(settings[LAW]), joint, geom, params, gravity, X, body, work[0:PHI_VECTORS], q, qd, q_d,
                       qd_d, qdd_d, gains[LAM], gains[KD], gamma, settings[DEAD_ZONE], signals[QDR], signals[QDDR],
                       signals[SLIDING], signals[TAU], params_dot)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from rtctl.control.consistency import MAX_CORRECTIONS, TOLERANCE, project_link, pseudo_inertia, \
+from rtctl.control.consistency import MAX_CORRECTIONS, TOLERANCE, positive_definite4, project_link, pseudo_inertia, \
     quadratic_form_gradient, symmetric_eigen4
 
 from random_robots import random_params
@@ -20,7 +20,7 @@ def pseudo(p):
 
 
 def scratch():
-    return np.zeros((4, 4)), np.zeros((4, 4)), np.zeros(10)
+    return np.zeros((4, 4)), np.zeros((4, 4)), np.zeros(10), np.zeros(4)
 
 
 def test_pseudo_inertia_is_the_second_moment_matrix():
@@ -109,3 +109,31 @@ def test_small_violations_take_a_few_corrections():
         P = pseudo(p)
         assert np.linalg.eigvalsh(P)[0] >= -TOLERANCE * abs(np.trace(P)) * 1.0001
     assert np.percentile(counts, 90) <= 3 and max(counts) < MAX_CORRECTIONS
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.floats(-3, 3), min_size=4, max_size=4), st.integers(0, 2**32 - 1), st.floats(0, 1e-3))
+def test_the_cholesky_shortcut_says_positive_definite_exactly_when_numpy_does(eig, seed, shift):
+    """positive_definite4 (the projection's test before any eigenvector) against numpy's
+    eigenvalues of A + shift·1, on matrices built with known eigenvalues, some near zero."""
+    Q, _ = np.linalg.qr(np.random.default_rng(seed).normal(size=(4, 4)))
+    A = Q @ np.diag(eig) @ Q.T
+    A = 0.5 * (A + A.T)
+    low = np.linalg.eigvalsh(A)[0] + shift
+    if abs(low) < 1e-9:  # (rounding decides there, in both)
+        return
+    assert positive_definite4(A, shift, np.zeros((4, 4))) == (low > 0)
+
+
+def test_a_consistent_link_is_left_bit_for_bit_with_no_correction():
+    """The in-loop case on nearly every tick: nothing to correct, nothing moved."""
+    rng = np.random.default_rng(7)
+    for _ in range(100):
+        p = random_params(rng)
+        before = p.copy()
+        assert project_link(p, rng.uniform(0.05, 20, 10), *scratch()) == 0
+        assert np.array_equal(p, before)
+
+
+def test_nan_parameters_are_not_taken_for_consistent():
+    assert not positive_definite4(np.full((4, 4), np.nan), 0.0, np.zeros((4, 4)))
