@@ -264,7 +264,8 @@ class Daemon:
         guard = [("guard", lambda: guarded.warm_up(self.cfg, self.guard))] if self.guard is not None else []
         controllers = [(f"controller {c.name}", lambda c=c: c.update(0.0, self.rt.state, self.rt.ref, scratch))
                        for c in self.rt.controllers]
-        return devices + guard + controllers + [("safety stage", lambda: self._warm_up_safety(scratch))]
+        return devices + guard + controllers + [("safety stage", lambda: self._warm_up_safety(scratch)),
+                                                ("tick", self.tick.warm_up)]
 
     def _warm_up_safety(self, scratch) -> None:
         """The safety stage's normal and fault paths (hold with gravity, damped stop): the first

@@ -19,12 +19,23 @@ from __future__ import annotations
 
 import numpy as np
 
+from rtctl.compiled import kernel
 from rtctl.hal import Status
 from rtctl.safety import Verdict
 from rtctl.safety.faults import device_reason
 from rtctl.timing import READ, RECORD, SAFETY, UPDATE, WRITE
 
 OK = int(Status.OK)
+
+
+@kernel
+def track(q, q_ref, err_max, err_sq):
+    """Per joint e = |q − q_ref|: max(e) into ``err_max``, e² added to ``err_sq`` (one call a tick)."""
+    for j in range(q.shape[0]):
+        e = abs(q[j] - q_ref[j])
+        if e > err_max[j]:
+            err_max[j] = e
+        err_sq[j] += e * e
 
 
 class Tick:
@@ -46,7 +57,6 @@ class Tick:
         self._io_reasons: list[str | None] = [None] * len(self.io)  # while a device fails: its fault's reason
         self.verdict = Verdict.OK
         self.controller_error: str | None = None
-        self._e = np.zeros(n)
         self.err_sq = np.zeros(n)  # Σ e² for the RMS in the summary
         self.err_max = np.zeros(n)
         self.samples = 0
@@ -143,13 +153,13 @@ class Tick:
         np.take(command.kd, idx, out=c.kd)
 
     def _track(self) -> None:
-        e, state, ref = self._e, self.rt.state, self.rt.ref
-        np.subtract(state.position, ref.q, out=e)
-        np.abs(e, out=e)
-        np.maximum(self.err_max, e, out=self.err_max)
-        np.multiply(e, e, out=e)
-        self.err_sq += e
+        track(self.rt.state.position, self.rt.ref.q, self.err_max, self.err_sq)
         self.samples += 1
+
+    def warm_up(self) -> None:
+        """Load the tick's own kernel (on scratch arrays)."""
+        n = len(self.err_sq)
+        track(np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n))
 
     def tracking_summary(self) -> dict | None:
         """RMS and max |q − q_d| per joint while the controllers were in charge (None when no

@@ -64,11 +64,11 @@ def _median_us(fn, repeats: int) -> float:
 
 
 @njit(cache=True)
-def _update_loop(count, settings, joint, geom, params, gravity, gains, gamma, X, body, work, q, qd, q_d, qd_d, qdd_d,
-                 signals, params_dot):
+def _update_loop(count, settings, joint, geom, params, gravity, gains, gamma, X, body, work, q, qd, fresh, ref,
+                 signals, params_dot, mask, tau_out):
     for _ in range(count):
-        slotine_li_update_kernel(settings, joint, geom, params, gravity, gains, gamma, X, body, work, q, qd, q_d,
-                                 qd_d, qdd_d, signals, params_dot)
+        slotine_li_update_kernel(settings, joint, geom, params, gravity, gains, gamma, X, body, work, q, qd, fresh,
+                                 ref, signals, params_dot, mask, tau_out)
 
 
 def _state(model, rng):
@@ -92,7 +92,7 @@ def _time_law(model, law, state, repeats):
     settings = c.settings.copy()
     settings[STEP] = 1e-9
     args = (settings, m.joint, m.geom, c.params_hat, m.gravity, c.gains, c.gamma, *c._work, js.position, js.velocity,
-            ref.q, ref.qd, ref.qdd, c.signals, c.params_dot)
+            js.fresh, ref.packed, c.signals, c.params_dot, c.mask, cmd.tau_ff)
     _update_loop(1, *args)
     count = 2000
     samples = []

@@ -10,7 +10,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from rtctl.compiled import leaf
 from rtctl.hal.joints import JointCommand, JointState
+
+
+@leaf
+def emit_owned(mask, tau, out):
+    """:meth:`Controller.emit` inside a kernel: out[j] = tau[j] for the joints owned (``mask``)."""
+    for j in range(tau.shape[0]):
+        if mask[j]:
+            out[j] = tau[j]
 
 
 class Reference:
@@ -40,7 +49,8 @@ class Controller:
         self.internals: dict[str, np.ndarray] = {}
 
     def emit(self, tau_out: np.ndarray, tau: np.ndarray) -> None:
-        """Copy the owned joints' torques into the command, without allocating."""
+        """Copy the owned joints' torques into the command, without allocating (a compiled
+        controller does it in its kernel: :func:`emit_owned`)."""
         np.copyto(tau_out, tau, where=self.mask)
 
     def bind(self, devices: dict) -> None:

@@ -13,37 +13,45 @@ from __future__ import annotations
 import numpy as np
 
 from rtctl.compiled import kernel
-from rtctl.control.base import Controller
+from rtctl.control.base import Controller, emit_owned
 from rtctl.control.gains import per_joint
 from rtctl.control.motor import motor_feedforward_add
 from rtctl.model.dynamics import Data, model_arrays
 from rtctl.model.rnea import rnea_kernel
 
 
+KP, KD, ARMATURE, VISCOUS, COULOMB = range(5)  # gains (5, n)
+QDD_CMD, TAU = range(2)  # signals (2, n)
+
+
 @kernel
-def computed_torque_kernel(joint, geom, params, gravity, X, body, q, qd, q_d, qd_d, qdd_d, kp, kd,
-                           armature, viscous, coulomb, coulomb_velocity, a, tau):
-    n = q.shape[0]
-    for i in range(n):
-        a[i] = qdd_d[i] - kd[i] * (qd[i] - qd_d[i]) - kp[i] * (q[i] - q_d[i])
+def computed_torque_kernel(joint, geom, params, gravity, X, body, q, qd, ref, gains, coulomb_velocity, signals, mask,
+                           tau_out):
+    """The tick in one call: q̈* from ``ref`` (rows q_d, q̇_d, q̈_d), τ = RNEA(q, q̇, q̈*) plus the drive
+    train, and the owned joints' τ into ``tau_out`` (arrays packed: each one handed over costs ~60 ns)."""
+    a, tau = signals[QDD_CMD], signals[TAU]
+    kp, kd = gains[KP], gains[KD]
+    for i in range(q.shape[0]):
+        a[i] = ref[2, i] - kd[i] * (qd[i] - ref[1, i]) - kp[i] * (q[i] - ref[0, i])
     rnea_kernel(joint, geom, params, gravity, X, body, q, qd, a, tau)
-    motor_feedforward_add(qd, a, armature, viscous, coulomb, coulomb_velocity, tau)
+    motor_feedforward_add(qd, a, gains[ARMATURE], gains[VISCOUS], gains[COULOMB], coulomb_velocity, tau)
+    emit_owned(mask, tau, tau_out)
 
 
 class ComputedTorque(Controller):
     def __init__(self, name, model, kp, kd, joints=None, divisor=1, motor_model=True, coulomb_velocity=0.01):
         super().__init__(name, model, joints, divisor)
         n = model.nq
-        self.kp = np.broadcast_to(np.asarray(kp, float), (n,)).copy()
-        self.kd = np.broadcast_to(np.asarray(kd, float), (n,)).copy()
+        self.gains = np.zeros((5, n))
+        self.gains[KP], self.gains[KD] = kp, kd
+        self.kp, self.kd = self.gains[KP], self.gains[KD]
         self.arrays, self.data = model_arrays(model), Data(model)
         m = model.motors if motor_model else None
-        self.armature = m.armature.copy() if m is not None else np.zeros(n)
-        self.viscous = m.viscous.copy() if m is not None else np.zeros(n)
-        self.coulomb = m.coulomb.copy() if m is not None else np.zeros(n)
+        if m is not None:
+            self.gains[ARMATURE], self.gains[VISCOUS], self.gains[COULOMB] = m.armature, m.viscous, m.coulomb
         self.coulomb_velocity = float(coulomb_velocity)
-        self.qdd_cmd = np.zeros(n)
-        self.tau = np.zeros(n)
+        self.signals = np.zeros((2, n))
+        self.qdd_cmd, self.tau = self.signals
         self.internals = {"qdd_cmd": self.qdd_cmd}
 
     @classmethod
@@ -57,6 +65,4 @@ class ComputedTorque(Controller):
     def update(self, t, state, ref, command):
         a, d = self.arrays, self.data
         computed_torque_kernel(a.joint, a.geom, a.params, a.gravity, d.X, d.body, state.position, state.velocity,
-                               ref.q, ref.qd, ref.qdd, self.kp, self.kd, self.armature, self.viscous,
-                               self.coulomb, self.coulomb_velocity, self.qdd_cmd, self.tau)
-        self.emit(command.tau_ff, self.tau)
+                               ref.packed, self.gains, self.coulomb_velocity, self.signals, self.mask, command.tau_ff)

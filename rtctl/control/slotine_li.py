@@ -137,7 +137,8 @@ class SlotineLi(Controller):
         self.qdr, self.qddr, self.s, self.tau = self.signals
         self._work = (np.zeros((n, 4, 3)), np.zeros((n, BODY_SLOTS, 6)), np.zeros((work_rows(n), 10)))
         self._scratch = (np.zeros((n, 4, 3)), np.zeros((n, BODY_SLOTS, 6)), np.zeros((work_rows(n), 10)),
-                         np.zeros(6), np.zeros((4, n)), np.zeros((n, 10)))
+                         np.zeros(6), np.zeros((4, n)), np.zeros((n, 10)), np.ones(n, dtype=bool), np.zeros((3, n)),
+                         np.zeros(n, dtype=bool), np.zeros(n))  # (fresh, ref, no joint owned, τ out)
         self._t_prev = np.nan
         self.internals = {"params_hat": self.params_hat.reshape(-1), "s": self.s}
 
@@ -167,17 +168,15 @@ class SlotineLi(Controller):
         """(τ, dπ̂/dt) for one tick at the current estimates; changes no state (allocates its
         result: use :meth:`update` in a loop)."""
         n = self.model.nq
-        vec = [np.ascontiguousarray(x, dtype=float).reshape(n) for x in (q, qd, q_des, qd_des, qdd_des)]
-        X, body, work, settings, signals, params_dot = self._scratch
+        q, qd, *ref_rows = [np.ascontiguousarray(x, dtype=float).reshape(n) for x in (q, qd, q_des, qd_des, qdd_des)]
+        X, body, work, settings, signals, params_dot, fresh, ref, owned, tau_out = self._scratch
         settings[:] = self.settings
         settings[STEP] = 0.0
-        self._tick(settings, (X, body, work), *vec, signals, params_dot)
-        return signals[TAU].copy(), params_dot.copy()
-
-    def _tick(self, settings, work, q, qd, q_d, qd_d, qdd_d, signals, params_dot):
+        ref[:] = ref_rows
         m = self.arrays
-        slotine_li_update_kernel(settings, m.joint, m.geom, self.params_hat, m.gravity, self.gains, self.gamma, *work,
-                                 q, qd, q_d, qd_d, qdd_d, signals, params_dot)
+        slotine_li_update_kernel(settings, m.joint, m.geom, self.params_hat, m.gravity, self.gains, self.gamma, X, body,
+                                 work, q, qd, fresh, ref, signals, params_dot, owned, tau_out)
+        return signals[TAU].copy(), params_dot.copy()
 
     def reset(self, state=None) -> None:
         """Restore π̂(0); the next update starts a fresh integration."""
@@ -189,8 +188,7 @@ class SlotineLi(Controller):
     def update(self, t, state, ref, command):
         self.settings[STEP] = t - self._t_prev if self._t_prev == self._t_prev else 0.0  # nan ≠ nan: first update
         self._t_prev = t
-        self._tick(self.settings, self._work, state.position, state.velocity, ref.q, ref.qd, ref.qdd, self.signals,
-                   self.params_dot)
-        if not state.fresh.all():  # a stale joint's s is not this tick's: do not adapt on it
-            self.params_dot.fill(0.0)
-        self.emit(command.tau_ff, self.tau)
+        m, (X, body, work) = self.arrays, self._work
+        slotine_li_update_kernel(self.settings, m.joint, m.geom, self.params_hat, m.gravity, self.gains, self.gamma, X,
+                                 body, work, state.position, state.velocity, state.fresh, ref.packed, self.signals,
+                                 self.params_dot, self.mask, command.tau_ff)
