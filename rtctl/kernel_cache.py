@@ -80,10 +80,23 @@ def _bases(package_dir: Path) -> list[Path]:
     return [*bases, user / "rtctl" / install]
 
 
+class SelectBeforeNumba:
+    """A one-shot import hook (``sys.meta_path``): :func:`select` runs when numba is first
+    imported, before it reads its settings; the import then proceeds as usual."""
+
+    @staticmethod
+    def find_spec(name, path=None, target=None):
+        if name == "numba" and SelectBeforeNumba in sys.meta_path:
+            sys.meta_path.remove(SelectBeforeNumba)
+            select()
+        return None
+
+
 def select() -> Path | None:
     """Point numba at the kernel directory for the current sources (made and locked here) and
-    remove the stale ones. Runs when rtctl is first imported, before any kernel is defined.
-    Returns the directory (None: nowhere writable, numba keeps its own default)."""
+    remove the stale ones. Runs when numba is first imported in a process that imported rtctl
+    (:class:`SelectBeforeNumba`), before any kernel is defined. Returns the directory (None:
+    nowhere writable, numba keeps its own default)."""
     global _held
     dirs = source_dirs()
     name = PREFIX + source_hash(dirs)
