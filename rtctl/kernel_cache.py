@@ -3,7 +3,7 @@
 numba checks a cached kernel against its own source file only. A kernel that calls a kernel
 (or reads a constant) from another file keeps its old machine code when only that other file
 changes — after an update, a controller or the safety stage would run code that is no longer
-in the sources. So every process that imports rtctl points ``NUMBA_CACHE_DIR`` at
+in the sources. So every process that imports rtctl, and then numba, points ``NUMBA_CACHE_DIR`` at
 ``<base>/rtctl-kernels-<hash>``, the hash taken over the content of every ``.py`` file of the
 packages that hold kernels (rtctl, drivers, hil_sim; about 180 files, 5–7 ms; no kernel reads
 their other files). Any changed source, whatever the version number says, starts an empty
