@@ -19,7 +19,7 @@ and d_k = (1 − λ) / (1 − λ^(k+1)), 0 < λ < 1 (λ is the forgetting factor
     Q̂(k+1) = (1 − d_k) Q̂(k) + d_k (K ε² Kᵀ + P(k+1|k+1) − P(k|k))              (27)
 
 Each of (24)-(27) is a switch (:data:`ADAPT_R` … :data:`ADAPT_QCOV`); q̂ is off by default
-because in closed loop it integrates Kε and diverges (tests/estimation). Safeguards, which the
+because it integrates Kε and diverges, in closed loop and in open loop alike (tests/estimation). Safeguards, which the
 plain Sage–Husa equations lack: when ε² − hᵀP(k+1|k)h < 0 (always, while P is still large) (25)
 uses ε² alone — flooring it instead lets R̂ collapse at the start and the coefficients chase the
 noise — and R̂ is floored at ``R_min`` > 0; the gain uses max(R̂, 10⁻⁹ hᵀPh), so P never
