@@ -20,10 +20,7 @@ import math
 import os
 import sys
 
-from rtctl.errors import (ConfigError, ControlSocketError, HardwareError, RealtimeError, ResourceBusyError,
-                          RtctlError, SafetyError)
-
-EXIT_OK, EXIT_BUG, EXIT_CONFIG, EXIT_FAULT, EXIT_HARDWARE, EXIT_RT, EXIT_SOCKET = range(7)
+from rtctl.errors import EXIT_OK, RtctlError, exit_code_for
 
 
 def _number(kind: str, ok):
@@ -228,23 +225,6 @@ def _add_leg_parser(sub) -> None:
             p.add_argument("--pla", metavar="PATH", help="also write the PLA in Berkeley (espresso) .pla format")
 
 
-# Most specific first: each family of the error tree, its exit code and how the message starts.
-_EXIT_FOR = (
-    (ConfigError, EXIT_CONFIG, "configuration error: "),
-    (RealtimeError, EXIT_RT, "real-time: "),
-    (HardwareError, EXIT_HARDWARE, "hardware: "),
-    (ControlSocketError, EXIT_SOCKET, ""),
-    (ResourceBusyError, EXIT_SOCKET, "busy: "),
-    (SafetyError, EXIT_FAULT, "safe stop: "),
-    (RtctlError, EXIT_CONFIG, ""),
-)
-
-
-def exit_code_for(error: RtctlError) -> tuple[int, str]:
-    """The exit code of an error of the tree, and how its message starts."""
-    return next((c, p) for cls, c, p in _EXIT_FOR if isinstance(error, cls))
-
-
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     try:
@@ -326,12 +306,6 @@ def _dispatch(args) -> int:
 
         return doctor(args)
     raise AssertionError(args.command)
-
-
-def print_json(obj) -> None:
-    from rtctl import jsonout
-
-    print(jsonout.dumps(obj, indent=2, sort_keys=True))
 
 
 if __name__ == "__main__":

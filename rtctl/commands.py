@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from rtctl import jsonout
-from rtctl.cli import EXIT_CONFIG, EXIT_OK, print_json
+from rtctl.errors import EXIT_OK
 
 SHIPPED_PUMA = Path(__file__).resolve().parent.parent / "configs" / "robots" / "puma560.toml"
 
@@ -55,7 +55,7 @@ def margins(args) -> int:
     """The delay margins of every adaptive (Slotine–Li) controller of a configuration."""
     from rtctl.config import load_config
     from rtctl.control.margins import format_margins, trajectory_margins
-    from rtctl.daemon import _trajectory_limits
+    from rtctl.trajectory import JointLimits
     from rtctl.errors import ConfigError
     from rtctl.runtime import build
     from rtctl.trajectory import through_waypoints
@@ -66,7 +66,7 @@ def margins(args) -> int:
         raise ConfigError(cfg.file, "controllers", "a slotine_li controller to analyse")
     if cfg.trajectory is None:
         raise ConfigError(cfg.file, "trajectory", "a trajectory: the margins are taken along it")
-    trajectory = through_waypoints(cfg.trajectory.waypoints, _trajectory_limits(cfg), smooth=cfg.trajectory.smooth)
+    trajectory = through_waypoints(cfg.trajectory.waypoints, JointLimits.for_run(cfg.model, cfg.trajectory), smooth=cfg.trajectory.smooth)
     for rate in args.rate or [cfg.loop.rate_hz]:
         if not (rate > 0 and np.isfinite(rate)):
             raise ConfigError("<command line>", "--rate", f"a positive rate in Hz, got {rate}")
@@ -92,10 +92,10 @@ def check(args) -> int:
         print(line)
     for line in _env_lines(env_uses):
         print(line)
-    from rtctl.daemon import _trajectory_limits
+    from rtctl.trajectory import JointLimits
     from rtctl.guard.commands import check_lines
 
-    for line in check_lines(cfg, _trajectory_limits(cfg)):
+    for line in check_lines(cfg, JointLimits.for_run(cfg.model, cfg.trajectory)):
         print(line)
     return EXIT_OK
 

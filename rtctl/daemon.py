@@ -31,12 +31,11 @@ import numpy as np
 import structlog
 
 from rtctl import jsonout
-from rtctl.cli import exit_code_for
 from rtctl.config import load_config, realtime_factor
 from rtctl.logs import written_in_background
 from rtctl.outputs import output_path
 from rtctl.control_socket import ControlServer
-from rtctl.errors import ConfigError, HardwareError, RtctlError, TelemetryError, TrajectoryError
+from rtctl.errors import ConfigError, HardwareError, RtctlError, TelemetryError, TrajectoryError, exit_code_for
 from rtctl.guard import run as guarded
 from rtctl.progress import Progress, interval_for
 from rtctl.hal import JointCommand, Status
@@ -101,7 +100,7 @@ class Daemon:
         self.summary: dict | None = None  # written by _finish
         self.summary_line = True  # log the summary as one event (the JSON log's last line)
         self.progress_s = 0.0  # a "running" line every progress_s s of wall time (0: none)
-        self.limits = _trajectory_limits(cfg)
+        self.limits = JointLimits.for_run(cfg.model, cfg.trajectory)
         self._check_trajectory()
         self.guard = guarded.runtime_guard(cfg, self.limits)
         self.safety = SafetyStage.from_model(
@@ -432,10 +431,3 @@ class Daemon:
                      "tracking_max_rad": summary["tracking_error_rad"]["max_all"]}),
                  faults=len(summary["safety"]["faults"]))
 
-
-def _trajectory_limits(cfg) -> JointLimits:
-    model, tcfg = cfg.model, cfg.trajectory
-    scale = tcfg.velocity_scale if tcfg else 0.5
-    v = np.where(np.isfinite(model.v_max), model.v_max, 1.0) * scale
-    a = tcfg.max_acceleration if tcfg is not None and tcfg.max_acceleration is not None else np.full(model.nq, 5.0)
-    return JointLimits(v, a, model.q_min, model.q_max)

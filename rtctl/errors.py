@@ -6,6 +6,10 @@ clear message and an exit code instead of a traceback.
 """
 
 
+# The process's exit codes (the CLI's module doc says when each is used).
+EXIT_OK, EXIT_BUG, EXIT_CONFIG, EXIT_FAULT, EXIT_HARDWARE, EXIT_RT, EXIT_SOCKET = range(7)
+
+
 class RtctlError(Exception):
     """Base of every error rtctl raises on purpose."""
 
@@ -86,3 +90,20 @@ class TelemetryError(RtctlError):
 class ControllerError(RtctlError):
     """A controller cannot produce a valid command (e.g. a non-finite estimate); names the joint
     and the quantity. Raised from ``update()``: the safety stage takes over in the same tick."""
+
+
+# Most specific first: each family of the error tree, its exit code and how the message starts.
+_EXIT_FOR = (
+    (ConfigError, EXIT_CONFIG, "configuration error: "),
+    (RealtimeError, EXIT_RT, "real-time: "),
+    (HardwareError, EXIT_HARDWARE, "hardware: "),
+    (ControlSocketError, EXIT_SOCKET, ""),
+    (ResourceBusyError, EXIT_SOCKET, "busy: "),
+    (SafetyError, EXIT_FAULT, "safe stop: "),
+    (RtctlError, EXIT_CONFIG, ""),
+)
+
+
+def exit_code_for(error: RtctlError) -> tuple[int, str]:
+    """The exit code of an error of the tree, and how its message starts."""
+    return next((c, p) for cls, c, p in _EXIT_FOR if isinstance(error, cls))

@@ -30,6 +30,11 @@ def strict(obj):
     return obj
 
 
+def print_json(obj) -> None:
+    """``obj`` on stdout as indented, strict JSON (what the CLI prints)."""
+    print(dumps(obj, indent=2, sort_keys=True))
+
+
 def dumps(obj, **kwargs) -> str:
     """``json.dumps`` that never writes NaN or Infinity (raises ValueError if one slipped through)."""
     return json.dumps(strict(obj), allow_nan=False, **kwargs)

@@ -6,13 +6,11 @@ Light on purpose: an operator's ``estop`` must not wait for numpy or numba to im
 from __future__ import annotations
 
 from rtctl.control_socket.client import default_socket_path, request
-
-EXIT_OK, EXIT_CONFIG, EXIT_REFUSED = 0, 2, 3
+from rtctl.errors import EXIT_CONFIG, EXIT_FAULT as EXIT_REFUSED, EXIT_OK
+from rtctl.jsonout import print_json
 
 
 def control_request(args) -> int:
-    from rtctl.cli import print_json
-
     path = args.socket or default_socket_path()
     fields = {}
     if args.command == "move":

@@ -64,7 +64,7 @@ def plan(args) -> int:
     """``rtctl plan CONFIG [--to …]``: print the path around the zones (to the target, or along the
     configuration's trajectory), optionally draw it."""
     from rtctl.config import load_config
-    from rtctl.daemon import _trajectory_limits
+    from rtctl.trajectory import JointLimits
 
     if args.plot:
         from rtctl.outputs import output_path
@@ -110,7 +110,7 @@ def plan(args) -> int:
             _plot(cfg, start, targets[-1], None, args.plot)
         raise
     ms = (time.perf_counter() - t0) * 1e3
-    trajectory, smooth = route_trajectory(scene, route, _trajectory_limits(cfg),
+    trajectory, smooth = route_trajectory(scene, route, JointLimits.for_run(cfg.model, cfg.trajectory),
                                           smooth=cfg.trajectory.smooth if "--to" not in points else False)
     for i, leg in enumerate(route.legs):
         straight = length(leg.path[[0, -1]])

@@ -54,6 +54,17 @@ class JointLimits:
         return cls(model.v_max * velocity_scale, np.broadcast_to(np.asarray(a_max, float), (model.nq,)),
                    model.q_min, model.q_max)
 
+    @classmethod
+    def for_run(cls, model, trajectory=None) -> "JointLimits":
+        """What a run plans with (its trajectory and every ``move``): the model's velocity limits
+        (1 rad/s where it has none) times the ``[trajectory]`` table's ``velocity_scale`` (0.5
+        without one), its ``max_acceleration`` (5 rad/s² without), the model's joint range."""
+        scale = trajectory.velocity_scale if trajectory is not None else 0.5
+        v = np.where(np.isfinite(model.v_max), model.v_max, 1.0) * scale
+        a = trajectory.max_acceleration if trajectory is not None and trajectory.max_acceleration is not None \
+            else np.full(model.nq, 5.0)
+        return cls(v, a, model.q_min, model.q_max)
+
     @property
     def n(self) -> int:
         return len(self.v_max)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from rtctl.config import load_config
-from rtctl.daemon import _trajectory_limits
+from rtctl.trajectory import JointLimits
 from rtctl.moves import wire
 from rtctl.moves.pending import Moves
 from rtctl.trajectory import hold, through_waypoints
@@ -24,7 +24,7 @@ TARGET = np.radians([20, 30, -160, 10, 60, 20])
 @pytest.fixture
 def planner(write_config):
     cfg = load_config(write_config(BASE))
-    limits = _trajectory_limits(cfg)
+    limits = JointLimits.for_run(cfg.model, cfg.trajectory)
     moves = Moves(cfg, limits, PERIOD)
     moves.start()
     moves.warm()
