@@ -5,6 +5,9 @@
   the controller's whole ``update()``. Goal: ≤ 3 µs per tick.
 * codec: sensor frames encoded and decoded per second (the board's side and the host's), and
   command frames encoded into a preallocated buffer.
+* compile: the whole synthesis and both proofs (what ``rtctl leg compile`` does after its
+  imports) on synthetic event tables of 6, 9, 12 and 16 states (:mod:`rtctl.logic.synthetic`).
+  Goal: ≤ 10 s each.
 """
 from __future__ import annotations
 
@@ -17,6 +20,34 @@ from rtctl.bench import percentiles_us
 
 CONFIG = Path(__file__).resolve().parents[2] / "configs" / "leg_sim.toml"
 GOAL_US = 3.0
+COMPILE_GOAL_S = 10.0
+COMPILE_CASES = [(kind, n, gates) for kind, gates in (("chain", 8), ("star", 5), ("random", 6)) for n in (6, 9, 12, 16)]
+
+
+def bench_compile() -> list[dict]:
+    """Seconds to synthesise and prove each synthetic table (see the module doc)."""
+    import tempfile
+
+    from rtctl.logic.emulate import CircuitModel
+    from rtctl.logic.synth import compile_table
+    from rtctl.logic.synthetic import synthetic_table
+    from rtctl.logic.table import load_table
+    from rtctl.logic.verify import agreement, race_proof
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for kind, n, gates in COMPILE_CASES:
+            path = Path(tmp) / f"{kind}{n}.toml"
+            path.write_text(synthetic_table(kind, n, gates))
+            t0 = time.perf_counter()
+            table = load_table(path)
+            circuit = compile_table(table)
+            model = CircuitModel.from_pla(circuit.pla, table.n_gates, circuit.n_bits, circuit.assignment.settle_passes)
+            ok = not agreement(circuit, model)["mismatches"] and race_proof(circuit, model).ok
+            rows.append({"table": kind, "states": n, "gates": gates, "seconds": time.perf_counter() - t0,
+                         "flip_flops": circuit.n_bits, "terms": circuit.pla.n_terms, "passes": model.max_passes,
+                         "proved": ok})
+    return rows
 
 
 def _walk_channels(board, controller, ticks: int) -> np.ndarray:
@@ -82,7 +113,8 @@ def bench_leg(ticks: int = 20000) -> dict:
     return {"ticks": ticks, "state_changes": int(changes), "goal_us": GOAL_US,
             "gates_settle": percentiles_us(ns_kernel), "update": percentiles_us(ns_update),
             "codec": {"sensor_encode_per_s": enc, "sensor_decode_per_s": decoded, "command_encode_per_s": cmd,
-                      "sensor_frame_bytes": proto.SENSOR_LENGTH, "command_frame_bytes": proto.COMMAND_LENGTH}}
+                      "sensor_frame_bytes": proto.SENSOR_LENGTH, "command_frame_bytes": proto.COMMAND_LENGTH},
+            "compile": bench_compile(), "compile_goal_s": COMPILE_GOAL_S}
 
 
 def format_table(r: dict) -> str:
@@ -96,4 +128,12 @@ def format_table(r: dict) -> str:
     lines.append(f"codec: sensor frames ({c['sensor_frame_bytes']} B) encoded {c['sensor_encode_per_s']:,.0f}/s, "
                  f"decoded {c['sensor_decode_per_s']:,.0f}/s; command frames ({c['command_frame_bytes']} B) "
                  f"encoded {c['command_encode_per_s']:,.0f}/s")
+    lines.append(f"leg compile (synthesis + both proofs), goal ≤ {r['compile_goal_s']:g} s each:")
+    lines.append(f"  {'table':<8}{'states':>7}{'gates':>6}{'flip-flops':>11}{'terms':>6}{'passes':>7}{'s':>7}  proved")
+    for row in r["compile"]:
+        lines.append(f"  {row['table']:<8}{row['states']:>7}{row['gates']:>6}{row['flip_flops']:>11}{row['terms']:>6}"
+                     f"{row['passes']:>7}{row['seconds']:>7.2f}  {'yes' if row['proved'] else 'NO'}")
+    worst = max(row["seconds"] for row in r["compile"])
+    lines.append(f"goal compile ≤ {r['compile_goal_s']:g} s: {'yes' if worst <= r['compile_goal_s'] else 'NO'} "
+                 f"(slowest {worst:.2f} s)")
     return "\n".join(lines)

@@ -16,12 +16,14 @@ def leg_command(args) -> int:
         args.pla = output_path(args.pla, "--pla")
     table = load_table(args.table)
     circuit = compile_table(table)
-    model = CircuitModel.from_pla(circuit.pla, table.n_gates, circuit.n_bits)
+    # the proofs hold the circuit to what its routes need: one pass per flip-flop change + one that confirms
+    model = CircuitModel.from_pla(circuit.pla, table.n_gates, circuit.n_bits, circuit.assignment.settle_passes)
     if args.leg_command == "replay":
         print(format_replay(circuit, replay(circuit, model)))  # a row some order cannot end in is reported, not an error
         return 0
     agree, race = agreement(circuit, model), race_proof(circuit, model)
     print(format_compile(circuit, agree, race))
+    print(f"Settles within {model.max_passes} passes (leg_automaton.max_passes must be at least that)")
     if args.pla:
         Path(args.pla).write_text(circuit.pla.to_espresso(
             f"{table.name}\nsynthesised by rtctl leg compile from {Path(args.table).name}: "

@@ -25,7 +25,7 @@ from numba import njit
 from rtctl.logic.pla import Pla
 
 NOT_SETTLED = -1
-DEFAULT_MAX_PASSES = 4  # the longest route is 2 steps: 2 changing passes + 1 that confirms
+DEFAULT_MAX_PASSES = 4  # the shipped table's longest route is 2 steps: 2 changing passes + 1 that confirms, + 1 spare
 
 
 @njit(cache=True)

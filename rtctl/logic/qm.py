@@ -22,10 +22,18 @@ import numpy as np
 Cube = tuple[int, int]
 
 MAX_VARIABLES = 16
+COVER_BUDGET = 20_000  # branch-and-bound nodes of one exact cover (see exact_cover)
 
 
 def minimise(n: int, on, dc=()) -> list[Cube]:
-    """An exact minimum sum of products for ON-set ``on`` with don't-cares ``dc``."""
+    """An exact minimum sum of products for ON-set ``on`` with don't-cares ``dc`` (within the
+    cover's budget: see :func:`minimise_proved`)."""
+    return minimise_proved(n, on, dc)[0]
+
+
+def minimise_proved(n: int, on, dc=()) -> tuple[list[Cube], bool]:
+    """(a minimum sum of products, True when the cover is proved minimum; False when
+    :func:`exact_cover` spent its budget and returned the best cover it found)."""
     if not 0 <= n <= MAX_VARIABLES:
         raise ValueError(f"n must be in [0, {MAX_VARIABLES}], got {n}")
     on = _minterms(on, n)
@@ -33,7 +41,7 @@ def minimise(n: int, on, dc=()) -> list[Cube]:
     if np.intersect1d(on, dc).size:
         raise ValueError("a minterm is both in the ON-set and a don't-care")
     if on.size == 0:
-        return []
+        return [], True
     space = np.arange(1 << n, dtype=np.int64)
     off = np.setdiff1d(space, np.union1d(on, dc))
     primes = sorted({p for m in on.tolist() for p in primes_through(n, m, off)})
@@ -83,12 +91,16 @@ def covers(cube: Cube, m: int) -> bool:
     return m & care == value
 
 
-def exact_cover(on: list[int], primes: list[Cube]) -> list[Cube]:
-    """Fewest primes covering every ON minterm; ties broken by fewest literals, then order."""
+def exact_cover(on: list[int], primes: list[Cube], budget: int = COVER_BUDGET) -> tuple[list[Cube], bool]:
+    """(fewest primes covering every ON minterm, ties broken by fewest literals, then order;
+    True when proved so). Branch and bound; a subtree is cut when a lower bound — one more
+    prime for each of a set of minterms no prime covers two of, with its fewest literals —
+    cannot beat the best cover. After ``budget`` nodes the best cover found is returned (False)."""
     rows = {m: frozenset(i for i, p in enumerate(primes) if covers(p, m)) for m in on}
     if any(not r for r in rows.values()):
         raise ValueError("an ON minterm is covered by no prime")
     literals = [p[0].bit_count() for p in primes]
+    fewest = {m: min(literals[i] for i in r) for m, r in rows.items()}
     chosen: set[int] = set()
     # essential primes: the only prime covering some minterm
     for m, r in rows.items():
@@ -96,20 +108,33 @@ def exact_cover(on: list[int], primes: list[Cube]) -> list[Cube]:
             chosen |= r
     left = [m for m in on if not rows[m] & chosen]
     best: list = [None, (len(primes) + 1, 0)]
+    nodes = [0]
+
+    def lower_bound(uncovered: list[int]) -> tuple[int, int]:
+        taken: set[int] = set()
+        count = lits = 0
+        for u in sorted(uncovered, key=lambda u: len(rows[u])):
+            if not rows[u] & taken:
+                taken |= rows[u]
+                count, lits = count + 1, lits + fewest[u]
+        return count, lits
 
     def search(uncovered: list[int], picked: tuple[int, ...]):
+        nodes[0] += 1
         cost = (len(picked), sum(literals[i] for i in picked))
-        if cost >= best[1] or (len(picked) >= best[1][0] and uncovered):
-            return
         if not uncovered:
-            best[0], best[1] = picked, cost
+            if cost < best[1]:
+                best[0], best[1] = picked, cost
+            return
+        more, lits = lower_bound(uncovered)
+        if (cost[0] + more, cost[1] + lits) >= best[1] or (best[0] is not None and nodes[0] > budget):
             return
         m = min(uncovered, key=lambda u: len(rows[u]))  # most constrained minterm first
         for i in sorted(rows[m], key=lambda i: (-sum(1 for u in uncovered if i in rows[u]), literals[i], i)):
             search([u for u in uncovered if i not in rows[u]], picked + (i,))
 
     search(left, ())
-    return [primes[i] for i in sorted(chosen | set(best[0]))]
+    return [primes[i] for i in sorted(chosen | set(best[0]))], nodes[0] <= budget
 
 
 def evaluate(cubes: list[Cube], n: int) -> np.ndarray:

@@ -37,7 +37,9 @@ def format_compile(circuit: Circuit, agreement: dict, race) -> str:
         if len(path) > 2:
             t = a.state_of(path[-1])
             out.append(f"  {s} → {t} routed " + " → ".join(a.code_str(c) for c in path) + " (no adjacent code is free)")
-    out += ["", "Equations (J-K excitation Q⁺ = J Q̄ + K̄ Q, outputs; minimised exactly):"]
+    proved = "minimised exactly" if not circuit.unproved else (
+        "minimised exactly except " + ", ".join(circuit.unproved) + ": the best cover found within the search budget")
+    out += ["", f"Equations (J-K excitation Q⁺ = J Q̄ + K̄ Q, outputs; {proved}):"]
     out += [f"  {e}" for e in pla.equations()]
     out += ["", f"PLA personality: {pla.n_terms} product terms, {pla.n_literals} literals, "
                 f"{len(pla.inputs)} inputs, {len(pla.outputs)} outputs", pla.matrix(), "",

@@ -14,14 +14,15 @@ assignments the smallest PLA wins (fewest product terms, then literals).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from rtctl.logic.assign import Assignment, candidate_assignments
+from rtctl.errors import ConfigError
+from rtctl.logic.assign import Assignment, AssignmentError, SearchResult, candidate_assignments
 from rtctl.logic.flow import FlowTable, flow_table
 from rtctl.logic.pla import Pla
-from rtctl.logic.qm import minimise
+from rtctl.logic.qm import MAX_VARIABLES, minimise_proved
 from rtctl.logic.table import EventTable
 
 DONT_CARE = -1
@@ -34,6 +35,8 @@ class Circuit:
     functions: dict  # name → list of cubes over gates + state bits, in PLA output order
     spec: np.ndarray  # [code, gates] → specified next code, or DONT_CARE
     pla: Pla
+    unproved: tuple[str, ...] = ()  # functions whose cover was not proved minimum within its budget
+    search: SearchResult | None = None  # how the assignment was found (None: given)
 
     @property
     def table(self) -> EventTable:
@@ -75,18 +78,24 @@ def excitation(spec: np.ndarray, n_gates: int, k: int):
 def synthesise(flow: FlowTable, a: Assignment) -> Circuit:
     ng, nb = flow.n_gates, a.n_bits
     spec = next_code_spec(flow, a)
-    functions = {}
+    functions, unproved = {}, []
+
+    def put(name, cubes_proved, shift=0):
+        cubes, proved = cubes_proved
+        functions[name] = [(care << shift, value << shift) for care, value in cubes]
+        if not proved:
+            unproved.append(name)
+
     for k in range(nb):  # J1 K1 J2 K2 …: the flip-flops' inputs, then the actuator bits
         (j_on, j_dc), (k_on, k_dc) = excitation(spec, ng, k)
-        functions[f"J{k + 1}"] = minimise(ng + nb, j_on, j_dc)
-        functions[f"K{k + 1}"] = minimise(ng + nb, k_on, k_dc)
+        put(f"J{k + 1}", minimise_proved(ng + nb, j_on, j_dc))
+        put(f"K{k + 1}", minimise_proved(ng + nb, k_on, k_dc))
     spare = list(a.spare)
     for i, name in enumerate(_output_names(flow.table, nb)):
         on = [c for s, c in a.codes.items() if flow.table.outputs[s] >> i & 1]
-        cubes = minimise(nb, on, spare)
-        functions[name] = [(care << ng, value << ng) for care, value in cubes]  # gates don't care
+        put(name, minimise_proved(nb, on, spare), shift=ng)  # over the state bits: the gates don't care
     inputs = flow.table.gates + tuple(f"Q{k + 1}" for k in range(nb))
-    return Circuit(flow, a, functions, spec, Pla.from_functions(inputs, functions))
+    return Circuit(flow, a, functions, spec, Pla.from_functions(inputs, functions), tuple(unproved))
 
 
 def _output_names(table: EventTable, nb: int) -> tuple[str, ...]:
@@ -98,13 +107,23 @@ def _output_names(table: EventTable, nb: int) -> tuple[str, ...]:
 
 def compile_table(table: EventTable) -> Circuit:
     """The whole synthesis: flow table, assignment search, excitation, minimisation, PLA;
-    the candidate with the smallest PLA (fewest product terms, then literals)."""
+    the candidate with the smallest PLA (fewest product terms, then literals). A table without
+    a race-free assignment is a :class:`ConfigError` naming its ``rows``."""
     flow = flow_table(table)
+    try:
+        search = candidate_assignments(flow)
+    except AssignmentError as e:
+        raise ConfigError(table.file, "rows", f"transitions that a race-free state assignment can code ({e})") from None
+    bits = search.candidates[0].n_bits
+    if flow.n_gates + bits > MAX_VARIABLES:
+        raise ConfigError(table.file, "gates", f"at most {MAX_VARIABLES - bits} gates for a table that needs {bits} "
+                                               f"flip-flops (the PLA's inputs, gates + flip-flops, are at most "
+                                               f"{MAX_VARIABLES}); got {flow.n_gates}")
     best = None
-    for a in candidate_assignments(flow):
+    for a in search.candidates:
         circuit = synthesise(flow, a)
         cost = (circuit.pla.n_terms, circuit.pla.n_literals)
         if best is None or cost < best[0]:
             best = (cost, circuit)
-    return best[1]
+    return replace(best[1], search=search)
 

@@ -21,6 +21,9 @@ from pathlib import Path
 from rtctl.errors import ConfigError
 from rtctl.tomltable import Table, load_toml
 
+MAX_GATES = 12  # with up to 4 flip-flops: the minimiser handles 16 variables
+MAX_STATES = 16  # the state-assignment search is bounded for these (docs/leg_automaton.md)
+
 NAME_CHARS = set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_")
 
 
@@ -97,11 +100,13 @@ def load_table(path) -> EventTable:
     actuators = _names(t, "actuators")
     if set(gates) & set(actuators):
         raise t.error("actuators", f"names different from the gates' ({sorted(set(gates) & set(actuators))[0]!r})")
-    if len(gates) > 16:
-        raise t.error("gates", "at most 16 gates")
+    if len(gates) > MAX_GATES:
+        raise t.error("gates", f"at most {MAX_GATES} gates (the circuit's PLA has gates + flip-flops ≤ 16 inputs)")
     outputs = _outputs(t.table("outputs"), len(actuators))
     steps, inputs, states = _rows(t, len(gates), len(actuators), outputs)
     t.done()
+    if len(set(states)) > MAX_STATES:
+        raise t.error("rows", f"at most {MAX_STATES} states, got {len(set(states))}")
     table = EventTable(Path(path), name, gates, actuators, outputs, steps, inputs, states, cyclic)
     check_flow(table)
     return table

@@ -38,6 +38,40 @@ def test_bad_controller_options_exit_2_naming_the_key(tmp_path, old, new, key, w
     assert e.value.key_path == key and words in e.value.expected, e.value
 
 
+@pytest.mark.parametrize("passes", [1, 2])
+def test_a_settle_limit_below_what_the_circuit_needs_is_refused_naming_the_need(tmp_path, passes):
+    """Issue 26 item 5: the shipped circuit's longest route is 2 flip-flop changes, so a settle
+    needs 3 passes (2 changes + 1 that confirms); 1 or 2 used to pass check and fault at 0.1 s."""
+    with pytest.raises(ConfigError) as e:
+        build(load_config(_config(tmp_path, **{'table = "': f'max_passes = {passes}\ntable = "'})))
+    assert e.value.key_path == "controllers[0].max_passes" and "at least 3" in e.value.expected, e.value
+
+
+def test_the_settle_limit_needed_is_the_longest_route_plus_one_confirming_pass(tmp_path):
+    """Measured on the circuit itself: from every state under every gate vector, the emulated
+    circuit with exactly that limit settles where the automaton goes, and with one pass less
+    some transition does not."""
+    from dataclasses import replace
+
+    from rtctl.logic.emulate import NOT_SETTLED, Emulator
+
+    ctl = build(load_config(_config(tmp_path))).controllers[0]
+    needed = ctl.circuit.assignment.settle_passes
+    assert ctl.cm.max_passes == needed + 1  # the default keeps one spare
+    flow, a = ctl.circuit.flow, ctl.circuit.assignment
+
+    def unsettled(limit):
+        em = Emulator(replace(ctl.cm, max_passes=limit))
+        bad = 0
+        for s in flow.states:
+            for x in range(1 << flow.n_gates):
+                em.code = a.codes[s]
+                bad += em.apply(x) == NOT_SETTLED
+        return bad
+
+    assert unsettled(needed) == 0 and unsettled(needed - 1) > 0
+
+
 def test_update_allocates_nothing():
     board, ctl = leg_runtime()
     board.configure()
@@ -67,15 +101,19 @@ def test_update_allocates_nothing():
 
 
 def test_a_circuit_that_does_not_settle_locks_both_joints_in_the_same_tick(tmp_path):
-    """max_passes = 1 leaves no pass to confirm a state change: the first transition is a fault."""
-    path = _config(tmp_path, **{'table = "': 'max_passes = 1\ntable = "'})
+    """A settle limit of 1 leaves no pass to confirm a state change: the first transition is a
+    fault. (The configuration refuses such a limit; set here as a circuit that cannot settle.)"""
+    path = _config(tmp_path)
     cfg = load_config(path)
     args = SimpleNamespace(telemetry=str(tmp_path / "t.msgpack"), socket=str(tmp_path / "s.sock"), enforce_rt=False,
                            duration=3.0, summary=None, log_level="error", realtime_factor=0.0)
     from dataclasses import replace
 
     cfg = replace(cfg, loop=replace(cfg.loop, realtime_factor=0.0))
-    d = Daemon(cfg, build(cfg), args)
+    rt = build(cfg)
+    ctl = rt.controllers[0]
+    ctl.cm = replace(ctl.cm, max_passes=1)
+    d = Daemon(cfg, rt, args)
     assert d.run() == 3
     fault = d.safety.faults[0]
     assert "did not settle" in fault.reason
