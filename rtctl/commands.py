@@ -85,17 +85,16 @@ def check(args) -> int:
     with deferred_env() as env_uses:
         daemon = prepare(args)  # what `run` does before it opens anything: load, build, plan
     cfg, runtime = daemon.cfg, daemon.rt
+    from rtctl.guard.commands import check_lines
+    from rtctl.trajectory import JointLimits
+
+    # everything is checked before "OK" is printed: a guard leg without a path is exit 2 with no OK above it
+    details = [*runtime.bus_budget(), *_env_lines(env_uses),
+               *check_lines(cfg, JointLimits.for_run(cfg.model, cfg.trajectory))]
     print(f"{cfg.file}: OK — robot {cfg.model.name} ({cfg.model.nq} joints), "
           f"{cfg.loop.rate_hz:g} Hz, devices: {', '.join(f'{d.name} ({d.driver})' for d in cfg.devices)}, "
           f"controllers: {', '.join(f'{c.name} ({c.type})' for c in cfg.controllers) or 'none'}")
-    for line in runtime.bus_budget():
-        print(line)
-    for line in _env_lines(env_uses):
-        print(line)
-    from rtctl.trajectory import JointLimits
-    from rtctl.guard.commands import check_lines
-
-    for line in check_lines(cfg, JointLimits.for_run(cfg.model, cfg.trajectory)):
+    for line in details:
         print(line)
     return EXIT_OK
 

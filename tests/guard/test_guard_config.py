@@ -47,8 +47,9 @@ def test_check_refuses_with_exit_2_naming_the_key_and_zone(tmp_path, capsys, tex
     path = tmp_path / "run.toml"
     path.write_text(text)
     assert main(["check", str(path)]) == 2  # in-process: the same code path as the command, faster
-    err = capsys.readouterr().err
+    out, err = capsys.readouterr()
     assert str(path) in err and key in err
+    assert ": OK" not in out, out  # issue 26 item 14: nothing said OK before the refusal
     for w in words:
         assert w in err
 
