@@ -81,13 +81,17 @@ def _bases(package_dir: Path) -> list[Path]:
 
 
 class SelectBeforeNumba:
-    """A one-shot import hook (``sys.meta_path``): :func:`select` runs when numba is first
-    imported, before it reads its settings; the import then proceeds as usual."""
+    """An import hook (``sys.meta_path``) that finds nothing: :func:`select` runs when numba is
+    first imported, before it reads its settings; the import then proceeds as usual. It stays
+    in the list (removing itself while the import system walks the list would skip the next
+    finder)."""
+
+    selected = False
 
     @staticmethod
     def find_spec(name, path=None, target=None):
-        if name == "numba" and SelectBeforeNumba in sys.meta_path:
-            sys.meta_path.remove(SelectBeforeNumba)
+        if name == "numba" and not SelectBeforeNumba.selected:
+            SelectBeforeNumba.selected = True
             select()
         return None
 
