@@ -86,18 +86,19 @@ def _clearance(route: Route, scene: Scene) -> float:
 
 def retarget_around(scene: Scene, t: float, q, qd, qdd, waypoints, limits: JointLimits, *,
                     duration: float | None = None, resolution: float = DEFAULT_RESOLUTION,
-                    max_nodes: int | None = None):
+                    max_nodes: int | None = None, deg=None):
     """The control socket's ``move`` with zones: (trajectory from the current reference state,
     route). Plans around the zones from the reference position; a move that needs a bypass
     stops at its corners and takes the time the limits need (a ``duration`` is refused). The
     result is certified to keep half the margin — the first segment from a moving state is
-    not straight — else the move is refused (the robot may still be moving: ask again at rest)."""
-    route = plan_route(scene, q, waypoints, resolution=resolution, max_nodes=max_nodes, what="target")
+    not straight — else the move is refused (the robot may still be moving: ask again at rest).
+    ``deg``: a per-joint mask of the joints a refusal shows in degrees (a move asked in degrees)."""
+    route = plan_route(scene, q, waypoints, resolution=resolution, max_nodes=max_nodes, what="target", deg=deg)
     if route.bypassed and duration is not None:
         raise GuardError("the move has to go around a zone: it takes the time the limits need (drop the duration)")
     trajectory = retarget(t, q, qd, qdd, route.points[1:], limits, duration=duration)
     hit = trajectory_violation(scene, trajectory, 0.5 * _clearance(route, scene), limits.v_max)
     if hit is not None:
-        raise GuardError(f"from the current motion the move would come {hit} at t = {hit.at:.3f} s: "
+        raise GuardError(f"from the current motion the move would come {hit.describe(deg)} at t = {hit.at:.3f} s: "
                          "wait until the robot is at rest")
     return trajectory, route

@@ -73,10 +73,12 @@ def check_timed_move(cfg, trajectory, t0: float, step: float = 0.002) -> None:
                              f"give no times to let the guard plan around it")
 
 
-def move_trajectory(cfg, t, ref, points, limits, duration=None):
-    """(trajectory, reply fields) for the control socket's ``move``; GuardError when refused."""
+def move_trajectory(cfg, t, ref, points, limits, duration=None, deg=False):
+    """(trajectory, reply fields) for the control socket's ``move``; GuardError when refused
+    (positions in degrees for the revolute joints when the move was asked in degrees)."""
     g = cfg.guard
+    mask = cfg.model.joint_types == 0 if deg else None
     trajectory, route = retarget_around(g.scene, t, ref.q, ref.qd, ref.qdd, points, limits, duration=duration,
-                                        resolution=g.resolution, max_nodes=g.move_budget)
+                                        resolution=g.resolution, max_nodes=g.move_budget, deg=mask)
     inserted = route.points[1:][~route.waypoint[1:]]
     return trajectory, {"bypass": np.asarray(inserted).tolist()}

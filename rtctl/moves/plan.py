@@ -45,7 +45,7 @@ def plan_move(cfg, limits, t0: float, start: Start, req: dict):
     extra = {}
     try:
         if cfg.guard is not None and times is None:  # around the interference zones
-            trajectory, extra = guarded.move_trajectory(cfg, t0, start, points, limits, duration)
+            trajectory, extra = guarded.move_trajectory(cfg, t0, start, points, limits, duration, bool(req.get("deg")))
         else:
             trajectory = retarget(t0, start.q, start.qd, start.qdd, points, limits, duration=duration,
                                   durations=None if times is None else np.diff(times))
