@@ -60,6 +60,23 @@ TARGETS = {
                    "tests/hil/test_can_config.py", 240),
     "urdf": (["rtctl/model/urdf.py"], "tests/model/test_urdf.py", 180),
     "control": (["rtctl/control"], "tests/control tests/leg/test_controller.py", 600),  # (the leg automaton's)
+    # issue 27 part 3: the newer modules (the guard's and the CiA 402 driver's are safety-relevant)
+    "guard": (["rtctl/guard/kernels.py", "rtctl/guard/feasibility.py", "rtctl/guard/zones.py",
+               "rtctl/guard/runtime.py", "rtctl/guard/grid.py", "rtctl/guard/visibility.py",
+               "rtctl/guard/planner.py", "rtctl/guard/motion.py"],
+              "tests/guard --deselect tests/guard/test_guard_closed_loop.py", 400),
+    "cia402_driver": (["drivers/cia402_frames.py", "drivers/cia402_joints.py"],
+                      "tests/can/test_cia402_driver.py tests/can/test_cia402_consumer.py "
+                      "tests/can/test_cia402_protocol.py", 300),
+    "estimation": (["rtctl/estimation"], "tests/estimation", 300),
+    "logic": (["rtctl/logic"], "tests/leg/test_synthesis.py tests/leg/test_circuit_by_brute_force.py "
+              "tests/leg/test_table.py tests/leg/test_compile_limits.py tests/leg/test_walking.py", 300),
+    "vision": (["rtctl/vision", "drivers/protocols/framegrabber.py", "drivers/protocols/framegrabber_host.py"],
+               "tests/vision --deselect tests/vision/test_vision_run.py", 300),
+    "mcap": (["rtctl/telemetry/mcap_export.py"], "tests/telemetry/test_mcap_export.py "
+             "tests/telemetry/test_mcap_times_and_levels.py", 240),
+    "trajectory": (["rtctl/trajectory"], "tests/trajectory tests/moves/test_move_units.py tests/moves/test_move_targets.py",
+                   240),
 }
 GROUPS = {"all": list(TARGETS), "protocols": [t for t in TARGETS if t.startswith("protocols-")]}
 
