@@ -56,3 +56,12 @@ def test_a_short_group_route_is_followed_to_its_end_at_the_same_fraction_as_the_
         s = p[2] / q1[2]
         along = np.array([np.interp(s * length[-1], length, route[:, d]) for d in range(2)])
         np.testing.assert_allclose(p[:2], along, atol=1e-12)
+
+
+def test_with_several_joints_past_their_limits_the_first_in_joint_order_is_named():
+    """feasibility.py: the reason names a joint that is past its limit — the first one, so the
+    message does not depend on how many others are."""
+    scene = Scene([Zone("far", [Box((0,), [5.0], [6.0])])], [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0],
+                  joint_names=("waist", "shoulder", "elbow"))
+    v = point_violation(scene, np.array([0.0, 1.5, 1.5]))
+    assert v is not None and v.what == "shoulder limit"
