@@ -1,7 +1,8 @@
 """Issue 27 part 3, a first sample of the `guard` mutation target (35 of 1561 plausible mutants):
-a test for each survivor that changes behaviour, each against the definition it breaks.
-(The fifth survivor, ``reshape(-1, 3)`` → ``reshape(-2, 3)``, is equivalent: numpy takes any
-negative size as the one it infers.)"""
+a test for each survivor that changes behaviour, each against the definition it breaks. Two are
+equivalent: ``reshape(-1, 3)`` → ``reshape(-2, 3)`` (numpy takes any negative size as the one it
+infers), and ``clip`` returning face 1 instead of −1 with ``NO_ENTRY`` (a face is read only when
+the segment enters, s < NO_ENTRY)."""
 from __future__ import annotations
 
 import numpy as np
@@ -65,3 +66,23 @@ def test_with_several_joints_past_their_limits_the_first_in_joint_order_is_named
                   joint_names=("waist", "shoulder", "elbow"))
     v = point_violation(scene, np.array([0.0, 1.5, 1.5]))
     assert v is not None and v.what == "shoulder limit"
+
+
+def test_a_scene_cannot_be_changed_after_its_tables_are_built():
+    """zones.py: the compiled tables are built from the zones and limits once; a scene that let
+    its limits be rebound afterwards would check against tables that no longer match them."""
+    import dataclasses
+
+    scene = Scene([Zone("far", [Box((0,), [5.0], [6.0])])], [-1.0], [1.0])
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        scene.q_max = np.array([10.0])
+
+
+@pytest.mark.parametrize("dt", [-0.001, 0.0, np.inf, np.nan])
+def test_the_runtime_guard_refuses_a_period_that_is_not_finite_and_positive(dt):
+    """runtime.py: the stopping distance is predicted over dt; a negative or infinite one is refused."""
+    from rtctl.guard.runtime import RuntimeGuard
+
+    scene = Scene([Zone("far", [Box((0,), [5.0], [6.0])])], [-1.0], [1.0])
+    with pytest.raises(ValueError, match="dt > 0"):
+        RuntimeGuard(scene, 10.0, dt)
