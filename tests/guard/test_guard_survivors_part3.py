@@ -86,3 +86,20 @@ def test_the_runtime_guard_refuses_a_period_that_is_not_finite_and_positive(dt):
     scene = Scene([Zone("far", [Box((0,), [5.0], [6.0])])], [-1.0], [1.0])
     with pytest.raises(ValueError, match="dt > 0"):
         RuntimeGuard(scene, 10.0, dt)
+
+
+def test_a_segment_with_an_end_past_a_limit_names_that_joint_and_that_end():
+    """feasibility.py: the limits are a box, so an endpoint decides — the first joint past its
+    limit, at s = 0 for the start and s = 1 for the end. (Equivalent survivors of the same
+    sample: trajectory_violation's sampling step made 2 µrad — only slower — and a Scene given
+    non-vector limits refused with n = −1 instead of 0, the same error.)"""
+    from rtctl.guard.feasibility import segment_violation
+
+    scene = Scene([Zone("far", [Box((0,), [5.0], [6.0])])], [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0],
+                  joint_names=("waist", "shoulder", "elbow"))
+    v = segment_violation(scene, np.zeros(3), np.array([0.0, 1.2, 0.0]))
+    assert v.what == "shoulder limit" and v.at == 1.0
+    v = segment_violation(scene, np.array([0.0, 0.0, -1.5]), np.zeros(3))
+    assert v.what == "elbow limit" and v.at == 0.0
+    v = segment_violation(scene, np.array([0.0, 1.5, 1.5]), np.zeros(3))
+    assert v.what == "shoulder limit"
