@@ -180,3 +180,23 @@ def test_budget_table_units():
     assert header.split() == ["bus", "protocol", "joints", "rate", "Hz", "kbit/s", "µs/tick", "load"]
     assert row.split()[:7] == ["b", "mit", "6", "1000", "1000", "1500", "150%"]
     assert row.endswith("> 80 % limit")
+
+
+def test_a_cia402_devices_budget_is_its_pdos_per_joint_and_one_empty_sync():
+    """The driver's own budget from the shipped EDS (RPDO1 4 B; TPDO1 8 B, TPDO2 4 B per joint) and
+    one SYNC with no data per bus, each frame at its worst-case stuffed length 8n + 47 + ⌊(34 + 8n − 1)/4⌋
+    bits (ISO 11898-1, standard identifier) — 1030 bits at 1 Mbit/s for 3 joints (issue 27 part 3:
+    a cia402_driver sample survivor gave the SYNC a data byte)."""
+    from pathlib import Path
+
+    from rtctl.config import load_config
+    from rtctl.runtime import build
+
+    def bits(n):
+        return 8 * n + 47 + (34 + 8 * n - 1) // 4
+
+    config = Path(__file__).resolve().parents[2] / "configs" / "puma560_hil_cia402.toml"
+    lines = build(load_config(config)).bus_budget()
+    row = next(line.split() for line in lines if line.startswith("can0"))
+    assert row[1] == "cia402" and row[2] == "3"
+    assert int(row[5]) == 3 * (bits(4) + bits(8) + bits(4)) + bits(0) == 1030  # µs per tick at 1 Mbit/s

@@ -306,3 +306,13 @@ def test_tpdos_missing_at_the_deadline_are_missing_and_count_late_when_they_come
     pump(r.drives, r.peer, now=r.now)
     r.write(r.now)  # takes them before its SYNC
     assert r.counters["late_replies"] == 4  # two TPDOs per drive
+
+
+def test_bring_up_asks_no_drive_for_torque_before_the_first_command(rig):
+    """Issue 27 part 3 (a cia402_driver sample survivor): until a controller writes a command,
+    every RPDO the driver sends — the bring-up's controlwords included — carries target torque 0."""
+    r = rig()
+    r.configure()
+    r.activate()
+    assert all(d.state == c.OPERATION_ENABLED for d in r.drive_list)
+    assert [d.torque_permille for d in r.drive_list] == [0, 0] and [d.torque for d in r.drive_list] == [0.0, 0.0]
