@@ -5,15 +5,14 @@ bit i = variable i); everything else is its OFF-set. A product term is a *cube*
 ``(care, value)``: the minterms m with ``m & care == value``.
 
 1. Prime implicants. A cube containing ON minterm m is an implicant iff it contains no OFF
-   minterm o, i.e. iff its free variables include none of the difference sets ``m ^ o`` —
-   so only the inclusion-minimal differences matter, and the primes through m are the
-   maximal free sets avoiding them. This yields exactly the primes Quine–McCluskey's merging
+   minterm o, i.e. iff its free variables include none of the difference sets ``m ^ o``;
+   the primes through m are the maximal free sets including none. This yields exactly the primes Quine–McCluskey's merging
    table would that cover at least one ON minterm (the others never enter a cover), without
    building the table's many don't-care-only implicants.
 2. The prime implicant chart is covered exactly (essential primes first, then branch and
    bound in Petrick's spirit): fewest terms, then fewest literals.
 
-Sizes here are small (≤ 16 variables; a handful of ON minterms per function).
+Sizes: ≤ 16 variables; up to a few hundred ON minterms per function (the cover has a budget).
 """
 from __future__ import annotations
 
@@ -22,7 +21,7 @@ import numpy as np
 Cube = tuple[int, int]
 
 MAX_VARIABLES = 16
-COVER_BUDGET = 20_000  # branch-and-bound nodes of one exact cover (see exact_cover)
+COVER_BUDGET = 5_000  # branch-and-bound nodes of one exact cover (see exact_cover; times in docs/leg_automaton.md)
 
 
 def minimise(n: int, on, dc=()) -> list[Cube]:
@@ -55,73 +54,79 @@ def _minterms(values, n: int) -> np.ndarray:
     return arr
 
 
+# the bytes of a little-endian uint64 word whose element index has bit b clear (b = 0, 1, 2)
+_LOW_BYTES = [np.uint64(0x00FF00FF00FF00FF), np.uint64(0x0000FFFF0000FFFF), np.uint64(0x00000000FFFFFFFF)]
+
+
 def primes_through(n: int, m: int, off: np.ndarray) -> list[Cube]:
-    """Every prime implicant containing minterm ``m`` (which must not be in ``off``)."""
-    full = (1 << n) - 1
+    """Every prime implicant containing minterm ``m`` (which must not be in ``off``).
+
+    A free-variable set f gives an implicant iff it includes no difference ``m ^ o``: marking
+    the differences and closing the marks upwards over the subset lattice, one pass per
+    variable (O(n 2ⁿ), whatever the OFF-set's size), leaves unmarked exactly the implicants;
+    the primes are the maximal ones. One byte per set, eight to a uint64 word: the passes
+    over the three low variables are shifts within a word, the others whole-word slices."""
     if off.size == 0:
         return [(0, 0)]
-    minimal = _minimal_sets((off ^ m).tolist())
-    free = np.arange(1 << n, dtype=np.int64)
-    ok = np.ones(free.size, dtype=bool)
-    for d in minimal:
-        ok &= (free & d) != d  # the cube's free variables must not include a whole difference
-    maximal = ok.copy()
-    for b in range(n):
-        bit = 1 << b
-        grows = ((free & bit) == 0) & ok[free | bit]
-        maximal &= ~grows
-    out = []
-    for f in np.flatnonzero(maximal).tolist():
-        care = full & ~f
-        out.append((care, m & care))
-    return out
-
-
-def _minimal_sets(sets: list[int]) -> list[int]:
-    """The inclusion-minimal elements of a family of bit sets."""
-    keep: list[int] = []
-    for s in sorted(set(sets), key=int.bit_count):
-        if not any(k & s == k for k in keep):
-            keep.append(s)
-    return keep
-
-
-def covers(cube: Cube, m: int) -> bool:
-    care, value = cube
-    return m & care == value
+    blocked = np.zeros(max(1 << n, 8), dtype=np.uint8)
+    blocked[off ^ m] = 1
+    bw = blocked.view("<u8")  # (little-endian whatever the machine: the byte masks assume it)
+    for b in range(n):  # a set with variable b free includes the one without it
+        if b < 3:
+            bw |= (bw & _LOW_BYTES[b]) << np.uint64(8 << b)
+        else:
+            v = bw.reshape(-1, 2, 1 << (b - 3))  # (higher variables, variable b, lower words)
+            v[:, 1, :] |= v[:, 0, :]
+    maximal = blocked ^ 1
+    mw = maximal.view("<u8")
+    for b in range(n):  # maximal: freeing any further variable would include a difference
+        if b < 3:
+            mw &= (bw >> np.uint64(8 << b)) | ~_LOW_BYTES[b]
+        else:
+            v, w = mw.reshape(-1, 2, 1 << (b - 3)), bw.reshape(-1, 2, 1 << (b - 3))
+            v[:, 0, :] &= w[:, 1, :]
+    full = (1 << n) - 1
+    return [(full & ~f, m & full & ~f) for f in np.flatnonzero(maximal[:1 << n]).tolist()]
 
 
 def exact_cover(on: list[int], primes: list[Cube], budget: int = COVER_BUDGET) -> tuple[list[Cube], bool]:
     """(fewest primes covering every ON minterm, ties broken by fewest literals, then order;
-    True when proved so). Branch and bound; a subtree is cut when a lower bound — one more
-    prime for each of a set of minterms no prime covers two of, with its fewest literals —
-    cannot beat the best cover. After ``budget`` nodes the best cover found is returned (False)."""
-    rows = {m: frozenset(i for i, p in enumerate(primes) if covers(p, m)) for m in on}
-    if any(not r for r in rows.values()):
+    True when proved so). Branch and bound on the most constrained minterm (fewest primes); a
+    subtree is cut when a lower bound — one more prime for each of a set of minterms no prime
+    covers two of, with its fewest literals — cannot beat the best cover. After ``budget``
+    nodes the best cover found is returned (False).
+
+    Minterms are numbered most constrained first (stable), and sets of them are int bit masks:
+    the first uncovered minterm is the lowest set bit, and a node costs a few integer operations."""
+    on_arr = np.asarray(on, dtype=np.int64)
+    cares = np.array([p[0] for p in primes], dtype=np.int64)
+    values = np.array([p[1] for p in primes], dtype=np.int64)
+    chart = (on_arr[:, None] & cares[None, :]) == values[None, :]  # [minterm, prime]
+    n_rows = chart.sum(axis=1)
+    if not n_rows.all():
         raise ValueError("an ON minterm is covered by no prime")
+    chart = chart[np.argsort(n_rows, kind="stable")]
     literals = [p[0].bit_count() for p in primes]
-    fewest = {m: min(literals[i] for i in r) for m, r in rows.items()}
-    chosen: set[int] = set()
-    # essential primes: the only prime covering some minterm
-    for m, r in rows.items():
-        if len(r) == 1:
-            chosen |= r
-    left = [m for m in on if not rows[m] & chosen]
+    rows = [np.flatnonzero(r).tolist() for r in chart]  # minterm j → the primes covering it
+    covered = [_mask(col) for col in chart.T]  # prime i → the minterms it covers
+    clash = [_or(covered[i] for i in r) for r in rows]  # minterm j → minterms sharing a prime with it
+    fewest = [min(literals[i] for i in r) for r in rows]
+    chosen = {r[0] for r in rows if len(r) == 1}  # essential primes: the only prime covering some minterm
+    left = (1 << len(rows)) - 1 & ~_or(covered[i] for i in chosen)
     best: list = [None, (len(primes) + 1, 0)]
     nodes = [0]
 
-    def lower_bound(uncovered: list[int]) -> tuple[int, int]:
-        taken: set[int] = set()
+    def lower_bound(uncovered: int) -> tuple[int, int]:
         count = lits = 0
-        for u in sorted(uncovered, key=lambda u: len(rows[u])):
-            if not rows[u] & taken:
-                taken |= rows[u]
-                count, lits = count + 1, lits + fewest[u]
+        while uncovered:  # greedily, most constrained first: minterms no prime covers two of
+            j = (uncovered & -uncovered).bit_length() - 1
+            count, lits = count + 1, lits + fewest[j]
+            uncovered &= ~clash[j]
         return count, lits
 
-    def search(uncovered: list[int], picked: tuple[int, ...]):
+    def search(uncovered: int, picked: tuple[int, ...], n_lits: int):
         nodes[0] += 1
-        cost = (len(picked), sum(literals[i] for i in picked))
+        cost = (len(picked), n_lits)
         if not uncovered:
             if cost < best[1]:
                 best[0], best[1] = picked, cost
@@ -129,12 +134,24 @@ def exact_cover(on: list[int], primes: list[Cube], budget: int = COVER_BUDGET) -
         more, lits = lower_bound(uncovered)
         if (cost[0] + more, cost[1] + lits) >= best[1] or (best[0] is not None and nodes[0] > budget):
             return
-        m = min(uncovered, key=lambda u: len(rows[u]))  # most constrained minterm first
-        for i in sorted(rows[m], key=lambda i: (-sum(1 for u in uncovered if i in rows[u]), literals[i], i)):
-            search([u for u in uncovered if i not in rows[u]], picked + (i,))
+        j = (uncovered & -uncovered).bit_length() - 1
+        for i in sorted(rows[j], key=lambda i: (-(covered[i] & uncovered).bit_count(), literals[i], i)):
+            search(uncovered & ~covered[i], picked + (i,), n_lits + literals[i])
 
-    search(left, ())
+    search(left, (), 0)
     return [primes[i] for i in sorted(chosen | set(best[0]))], nodes[0] <= budget
+
+
+def _mask(flags: np.ndarray) -> int:
+    """A bool vector as an int bit mask (bit j = flags[j])."""
+    return int.from_bytes(np.packbits(flags, bitorder="little").tobytes(), "little")
+
+
+def _or(masks) -> int:
+    out = 0
+    for m in masks:
+        out |= m
+    return out
 
 
 def evaluate(cubes: list[Cube], n: int) -> np.ndarray:

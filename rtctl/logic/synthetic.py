@@ -7,13 +7,16 @@ of state s are s's low four bits (a Moore output). Three shapes of cycle:
 * ``chain``: 1 → 2 → … → n → 1, each state left one way (the sparsest cyclic table);
 * ``star``: 1 → 2 → 1 → 3 → 1 → … → n → 1, the leg table's shape (state 1 is left n − 1
   ways): the hub needs more neighbours than a code has, so transitions need routes;
-* ``random``: a tour of all states in random order, then random jumps (``seed``), 3n rows.
+* ``random``: a tour of all states in random order, then random jumps (``seed``), 3n rows;
+* ``complete``: every state left for every other, once each (an Eulerian circuit of the
+  complete graph, n(n − 1) rows): the most transitions n states can have, no assignment
+  without routes, and the largest functions for the minimiser.
 """
 from __future__ import annotations
 
 import random
 
-KINDS = ("chain", "star", "random")
+KINDS = ("chain", "star", "random", "complete")
 
 
 def state_sequence(kind: str, n_states: int, seed: int = 0) -> list[int]:
@@ -25,6 +28,8 @@ def state_sequence(kind: str, n_states: int, seed: int = 0) -> list[int]:
         return list(range(1, n_states + 1))
     if kind == "star":
         return [s for k in range(2, n_states + 1) for s in (1, k)]
+    if kind == "complete":
+        return _euler_circuit(n_states)
     rng = random.Random(seed)
     tour = [1] + rng.sample(range(2, n_states + 1), n_states - 1)
     while len(tour) < 3 * n_states:
@@ -48,6 +53,19 @@ def synthetic_table(kind: str, n_states: int, n_gates: int, seed: int = 0) -> st
     return (f'name = "synthetic {kind}: {n_states} states, {n_gates} gates"\ncyclic = true\n'
             f'gates = [{gates}]\nactuators = ["K1", "K2", "A1", "A2"]\nrows = [\n' + "\n".join(rows)
             + f"\n]\n\n[outputs]\n{outputs}\n")
+
+
+def _euler_circuit(n: int) -> list[int]:
+    """States 1…n in an order that takes every ordered pair once and closes on the first
+    (Hierholzer's algorithm; every state has n − 1 ways in and out)."""
+    left = {s: [t for t in range(n, 0, -1) if t != s] for s in range(1, n + 1)}
+    stack, circuit = [1], []
+    while stack:
+        if left[stack[-1]]:
+            stack.append(left[stack[-1]].pop())
+        else:
+            circuit.append(stack.pop())
+    return circuit[::-1][:-1]
 
 
 def _bits(x: int, n: int) -> str:

@@ -23,6 +23,8 @@ from rtctl.tomltable import Table, load_toml
 
 MAX_GATES = 12  # with up to 4 flip-flops: the minimiser handles 16 variables
 MAX_STATES = 16  # the state-assignment search is bounded for these (docs/leg_automaton.md)
+MAX_ROWS = 256  # 16 states left for each of the 15 others is 240; more rows only repeat transitions
+# under other gate vectors, and the minimiser's time grows with them (docs/leg_automaton.md)
 
 NAME_CHARS = set("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_")
 
@@ -132,6 +134,8 @@ def _rows(t: Table, n_gates: int, n_act: int, outputs: dict):
     rows = t.raw("rows")
     if not isinstance(rows, list) or len(rows) < 2:
         raise t.error("rows", "an array of at least two rows [step, gate bits, actuator bits, state]")
+    if len(rows) > MAX_ROWS:
+        raise t.error("rows", f"at most {MAX_ROWS} rows, got {len(rows)}")
     steps, inputs, states = [], [], []
     for k, row in enumerate(rows):
         key = f"rows[{k}]"
