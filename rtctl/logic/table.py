@@ -6,6 +6,7 @@ state of row k−1, lead to the state of row k, which is stable under them (fund
 Every error names the file and the row (``rows[k]``; exit code 2 from the CLI):
 
 * a row of the wrong width (number of columns, gate bits or actuator bits);
+* more rows, states or gates than the compiler is bounded for (256, 16, 12: ``rows``, ``gates``);
 * two rows that conflict (same state and gates, different next state);
 * a state with no exit;
 * an output that is not a function of the state (a row's actuator bits differ from the
