@@ -152,3 +152,20 @@ def test_over_slcan_a_cycle_skips_one_acknowledgement_per_frame_it_sent():
     g._send_sync(0.0)
     assert g.bus.sent.count(c.SYNC) == 1
     assert g._acks_per_send == len(g.bus.sent) == 2 * len(g.layout.rpdos) + 1
+
+
+def test_a_heartbeat_exactly_as_old_as_the_timeout_is_in_time_when_another_node_is_late(rig):
+    """The consumer's rule — late only *past* ``heartbeat_timeout`` — holds for every node, also
+    when another node's late heartbeat makes it look at all (ages below are binary fractions: exact)."""
+    r = rig(heartbeat_timeout=0.25, drive_timeout=1.0)
+    r.activate()  # t = 0: both nodes' timers start
+    r.drive_list[0].faults.heartbeat = False  # node 1 beats no more
+    before = r.counters["heartbeats"]
+    r.tick(0.125)  # node 2 beats (every 0.1 s) …
+    r.drive_list[1].faults.heartbeat = False
+    r.tick(0.125)  # … and its beat is taken at t = 0.25
+    assert r.counters["heartbeats"] > before
+    r.now = 0.5  # node 1: 0.5 s without a beat; node 2: exactly 0.25 s
+    assert r.read(r.now) == Status.ERROR
+    assert list(r.state.fresh) == [False, True]
+    assert "node(s) 0x1 " in r.events[-1]["reason"]
