@@ -34,6 +34,7 @@ def test_without_settings_a_device_has_the_documented_defaults():
     ("stale_limit", [1], [0]),  # one missed tick may already be an error
     ("reconnect_timeout", [0.0], [-0.001]),  # 0: no reopening, the device stays ERROR at once
     ("reply_deadline", [0.95], [0.0, 0.951]),
+    ("drive_timeout", [0.001], [0.0, -0.02]),  # 0x1400 sub 5 counts whole ms; 0 would switch it off
 ])
 def test_settings_at_their_bounds(key, accepted, refused):
     for value in accepted:
