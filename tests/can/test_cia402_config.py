@@ -34,7 +34,10 @@ def test_without_settings_a_device_has_the_documented_defaults():
     ("stale_limit", [1], [0]),  # one missed tick may already be an error
     ("reconnect_timeout", [0.0], [-0.001]),  # 0: no reopening, the device stays ERROR at once
     ("reply_deadline", [0.95], [0.0, 0.951]),
-    ("drive_timeout", [0.001], [0.0, -0.02]),  # 0x1400 sub 5 counts whole ms; 0 would switch it off
+    ("drive_timeout", [0.001, 65.535], [0.0, -0.02, 65.536]),  # 0x1400 sub 5: UNSIGNED16 ms, 0 = none
+    ("heartbeat_period", [0.001, 65.535], [0.0, 65.536]),  # 0x1017: UNSIGNED16 ms, 0 = none
+    ("reconnect_interval", [0.001], [0.0]),
+    ("bus_load_limit", [1.0], [0.0, 1.01]),  # a fraction of the bus
 ])
 def test_settings_at_their_bounds(key, accepted, refused):
     for value in accepted:
@@ -57,3 +60,12 @@ def test_the_bus_budget_is_taken_at_the_loop_rate():
     from_config(bus_load_limit=load)  # exactly at the limit: accepted
     with pytest.raises(BusLoadError):
         from_config(bus_load_limit=load - 1e-4)
+
+
+def test_the_first_device_of_a_run_reports_the_bus_budget():
+    """BusBudget.of: the run's budget is reported by the device that created it — once."""
+    shared = {}
+    first = from_config(shared)
+    second = from_config(shared, bus={"interface": "virtual", "channel": "y", "bitrate": 1_000_000})
+    assert first.budget is not None and second.budget is None
+    assert sorted(b.label for b in first.budget.buses.values()) == ["x", "y"]  # (both buses in it)
