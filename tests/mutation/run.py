@@ -72,7 +72,8 @@ TARGETS = {
     "cia402_driver": (["drivers/cia402_frames.py", "drivers/cia402_joints.py"],
                       "tests/can/test_cia402_driver.py tests/can/test_cia402_consumer.py "
                       "tests/can/test_cia402_protocol.py tests/can/test_cia402_config.py "
-                      "tests/can/test_cia402_lifecycle.py tests/can/test_cia402_disable_budget.py "
+                      "tests/can/test_cia402_lifecycle.py tests/can/test_cia402_frames.py "
+                      "tests/can/test_cia402_disable_budget.py "
                       "tests/can/test_busload.py", 300),  # (test_busload: its bus budget)
     "estimation": (["rtctl/estimation"], "tests/estimation", 300),
     "logic": (["rtctl/logic"], "tests/leg/test_synthesis.py tests/leg/test_circuit_by_brute_force.py "
