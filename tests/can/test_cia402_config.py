@@ -1,6 +1,7 @@
 """The cia402 device's settings as a run's configuration gives them (Cia402JointGroup.from_config,
 in-process: it validates and opens nothing) — the defaults docs/cia402.md lists, the bounds the
 MIT driver shares (tests/can/test_mit_can_config.py), and the bus budget at the loop rate."""
+import inspect
 from types import SimpleNamespace
 
 import numpy as np
@@ -28,6 +29,11 @@ def test_without_settings_a_device_has_the_documented_defaults():
     assert g.stale_limit == 3 and g.drive_timeout == 0.02 and g.exchange_timeout == 0.5
     assert g.heartbeat_period == 0.1 and g.heartbeat_timeout == pytest.approx(0.3, rel=1e-12)
     assert g.reconnect_timeout == 2.0 and g.reconnect_interval == 0.05
+    constructor = inspect.signature(Cia402JointGroup.__init__).parameters  # built without a configuration: the same
+    assert {k: constructor[k].default for k in ("reply_deadline", "stale_limit", "drive_timeout", "heartbeat_period",
+                                                "exchange_timeout", "reconnect_timeout", "reconnect_interval")} == {
+        "reply_deadline": 0.6, "stale_limit": 3, "drive_timeout": 0.02, "heartbeat_period": 0.1,
+        "exchange_timeout": 0.5, "reconnect_timeout": 2.0, "reconnect_interval": 0.05}
 
 
 @pytest.mark.parametrize("key, accepted, refused", [

@@ -194,13 +194,14 @@ def test_a_fault_that_outlives_the_first_reset_is_reset_on_a_new_rising_edge(rig
     assert len(edges) == 2 and all(x.state == c.OPERATION_ENABLED for x in r.drive_list)
 
 
-def test_a_failed_activation_says_what_failed(rig):
-    r = rig(exchange_timeout=0.05, drive_timeout=0.02)
+def test_a_failed_activation_says_what_failed_and_leaves_no_drive_enabled(rig):
+    r = rig()
     r.configure()
-    r.drive_list[1].faults.silent = True  # cannot be enabled, nor be seen disabled afterwards
-    with pytest.raises(HardwareError, match="did not reach OPERATION ENABLED"):
+    stuck = r.drive_list[1]
+    stuck.apply_controlword = lambda cw: None  # answers every SYNC, follows no controlword
+    with pytest.raises(HardwareError, match=r"0x2 \(SWITCH ON DISABLED\) did not reach OPERATION ENABLED"):
         r.activate()
-    assert r.drive_list[0].state != c.OPERATION_ENABLED  # the other one taken down again
+    assert r.drive_list[0].state == c.SWITCH_ON_DISABLED  # it was enabled on the way: taken down again
 
 
 def test_a_bus_error_while_the_state_machines_step_is_a_hardware_error_and_closes_the_bus(rig):
@@ -247,3 +248,28 @@ def test_a_bus_error_while_a_tick_collects_is_a_lost_bus_at_once(rig):
     r.bus.recv = broken
     assert r.read(r.now) == Status.ERROR  # the read that failed reports it, not the next write
     assert r.counters["bus_errors"] == 1 and r.events[-1]["event"] == "bus_lost" and r.bus is None
+
+
+def test_a_drive_silent_before_deactivate_is_named_with_its_deadline_in_ms(rig):
+    r = rig()
+    r.activate()
+    r.tick()
+    r.drive_list[1].faults.silent = True
+    r.tick()
+    r.tick()  # node 2 missed a tick
+    assert r.deactivate() is False
+    assert "node(s) 0x2 silent before: their RPDO deadline (20 ms) turns them off" in r.last_error
+
+
+def test_emcys_from_two_drives_at_once_name_the_first_in_the_devices_order(rig):
+    """As the stale and heartbeat reports list nodes in the device's order, the drive_fault event
+    names the first faulted drive of that order (and carries every code)."""
+    r = rig()
+    r.activate()
+    r.tick()
+    r.drive_list[1].set_error(0x2310)
+    r.drive_list[0].set_error(0x4310)  # (sent after node 2's)
+    r.tick()
+    r.tick()
+    (event,) = [e for e in r.events if e["event"] == "drive_fault"]
+    assert event["drive"] == 1 and event["code"] == 0x4310 and event["codes"] == {"a": 0x4310, "b": 0x2310}
