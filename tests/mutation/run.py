@@ -5,6 +5,8 @@
     python tests/mutation/run.py protocols         (protocols-mit, protocols-cia402, …)
     python tests/mutation/run.py safety --workdir DIR --resume   (a stopped run, or a sample, to the end)
     python tests/mutation/run.py safety --workdir DIR --survivors   (only the survivors again, after new tests)
+    python tests/mutation/run.py guard --workdir DIR --resume --sample 200   (a sample widened to a larger one)
+    python tests/mutation/run.py all --count   (mutants per target and one cold run of its tests: no mutant run)
 
 For each target (see ``TARGETS``) it copies a committed tree (``git archive``, HEAD or ``--rev``) into a
 work directory — cosmic-ray rewrites the source on disk, one mutant at a time, so it must
@@ -24,7 +26,8 @@ type. Swaps such as ``*`` → ``<<`` on floats (a TypeError at once) or ``==`` �
 numbers only add run time.
 
 ``--sample N`` evaluates a fixed pseudo-random subset of N mutants per target, chosen from a
-hash of (file, operator, occurrence), so two commits are compared on the same mutants.
+hash of (file, operator, occurrence), so two commits are compared on the same mutants; a
+larger N holds every mutant of a smaller one, so a sample can be widened in place.
 """
 from __future__ import annotations
 
@@ -38,6 +41,7 @@ import sqlite3
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -67,7 +71,10 @@ TARGETS = {
               "tests/guard --deselect tests/guard/test_guard_closed_loop.py", 400),
     "cia402_driver": (["drivers/cia402_frames.py", "drivers/cia402_joints.py"],
                       "tests/can/test_cia402_driver.py tests/can/test_cia402_consumer.py "
-                      "tests/can/test_cia402_protocol.py", 300),
+                      "tests/can/test_cia402_protocol.py tests/can/test_cia402_config.py "
+                      "tests/can/test_cia402_lifecycle.py tests/can/test_cia402_frames.py "
+                      "tests/can/test_cia402_disable_budget.py "
+                      "tests/can/test_busload.py", 300),  # (test_busload: its bus budget)
     "estimation": (["rtctl/estimation"], "tests/estimation", 300),
     "logic": (["rtctl/logic"], "tests/leg/test_synthesis.py tests/leg/test_circuit_by_brute_force.py "
               "tests/leg/test_table.py tests/leg/test_compile_limits.py tests/leg/test_walking.py", 300),
@@ -115,7 +122,12 @@ def export_tree(dest: Path, rev: str) -> None:
     subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
 
 
-def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD") -> dict:
+def sample_key(item, tree: Path) -> str:
+    """What ``in_sample`` hashes: the mutant's file (relative to the copy), operator and occurrence."""
+    return "|".join(f"{Path(m.module_path).relative_to(tree)}:{m.operator_name}:{m.occurrence}" for m in item.mutations)
+
+
+def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD", count_only: bool = False) -> dict:
     from cosmic_ray.work_db import WorkDB, use_db
     from cosmic_ray.work_item import WorkerOutcome, WorkResult
 
@@ -129,16 +141,23 @@ def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD") 
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         items = list(work_db.pending_work_items)
         keep = [i for i in items if all(plausible(m.operator_name) for m in i.mutations)]
-        chosen = {i.job_id for i in keep if in_sample(
-            "|".join(f"{Path(m.module_path).relative_to(tree)}:{m.operator_name}:{m.occurrence}" for m in i.mutations),
-            sample, len(keep))}
+        chosen = {i.job_id for i in keep if in_sample(sample_key(i, tree), sample, len(keep))}
         skipped = [i.job_id for i in items if i.job_id not in chosen]
         work_db.set_multiple_results(skipped, WorkResult(output="not in the plausible set or the sample",
                                                          worker_outcome=WorkerOutcome.SKIPPED))
-    print(f"{name}: {len(items)} mutants, {len(keep)} plausible, running {len(chosen)}", flush=True)
+    print(f"{name}: {len(items)} mutants, {len(keep)} plausible, {'would run' if count_only else 'running'} "
+          f"{len(chosen)}", flush=True)
+    started = time.monotonic()
     baseline = subprocess.run(PYTEST.split() + tests.split(), cwd=tree, env=env, capture_output=True, text=True)
+    seconds = time.monotonic() - started
+    shutil.rmtree(tree / ".numba", ignore_errors=True)  # (the baseline's kernels: a cold start for each mutant)
     if baseline.returncode != 0:
         raise SystemExit(f"{name}: the tests fail without any mutant:\n{baseline.stdout[-3000:]}")
+    if count_only:
+        print(f"{name}: the tests take {seconds:.0f} s from a cold kernel cache; {len(chosen)} mutants ≈ "
+              f"{len(chosen) * seconds / 3600:.1f} h (a killed mutant stops at its first failure: less)", flush=True)
+        return {"target": name, "mutants": 0, "killed": 0, "timeouts_or_crashes": 0, "survived": 0,
+                "survival_rate": None, "plausible": len(keep), "seconds": round(seconds, 1)}
     _exec(config, db, tree)
     return report(name, tree, db)
 
@@ -154,12 +173,12 @@ def _write_config(name: str, tree: Path, config: Path) -> str:
     return tests
 
 
-def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = True) -> dict:
+def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = True, sample: int | None = None) -> dict:
     """Continue the run of ``name`` in ``workdir`` (one that was stopped, or a sample to widen
-    to every mutant): the tree is exported again at ``rev`` — the tests as they are now, and no
-    mutant left planted by a stopped run — and every plausible mutant not yet killed is run:
-    those never run and the survivors, again. ``widen=False`` keeps a sample as it is: only
-    the survivors (and what a stopped run left unfinished) run again."""
+    to every mutant, or to a larger ``sample``): the tree is exported again at ``rev`` — the
+    tests as they are now, and no mutant left planted by a stopped run — and every plausible
+    mutant not yet killed is run: those never run and the survivors, again. ``widen=False``
+    keeps a sample as it is: only the survivors (and what a stopped run left unfinished) run again."""
     from cosmic_ray.work_db import WorkDB, use_db
     from cosmic_ray.work_item import TestOutcome, WorkerOutcome
 
@@ -170,9 +189,15 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
     export_tree(tree, rev)
     _write_config(name, tree, config)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
+        items = list(work_db.work_items)
+        elsewhere = {m.module_path for item in items for m in item.mutations if not m.module_path.is_relative_to(tree)}
+        if elsewhere:  # (a moved work directory: cosmic-ray would plant the mutants in the old copy)
+            raise SystemExit(f"{name}: the run's mutants are in files outside {tree}, e.g. {min(elsewhere)}")
+        total = sum(all(plausible(m.operator_name) for m in item.mutations) for item in items)
         again = [item.job_id for item, result in work_db.completed_work_items
                  if all(plausible(m.operator_name) for m in item.mutations)
-                 and ((widen and result.worker_outcome == WorkerOutcome.SKIPPED)
+                 and ((widen and result.worker_outcome == WorkerOutcome.SKIPPED
+                       and in_sample(sample_key(item, tree), sample, total))
                       or result.test_outcome == TestOutcome.SURVIVED)]
     with sqlite3.connect(db) as con:
         con.executemany("DELETE FROM work_results WHERE job_id = ?", [(j,) for j in again])
@@ -238,13 +263,18 @@ def main(argv=None) -> int:
                    help="continue the run in --workdir: what was not run, and the survivors again, at --rev")
     p.add_argument("--survivors", action="store_true",
                    help="run the survivors of the run in --workdir again at --rev (after new tests), keeping its sample")
+    p.add_argument("--count", action="store_true",
+                   help="only count the mutants and time one run of the tests from a cold kernel cache")
     args = p.parse_args(argv)
-    if (args.resume or args.survivors) and (args.workdir is None or args.sample is not None):
-        p.error("--resume and --survivors continue the run in --workdir (no --sample: it keeps its own)")
+    if (args.resume or args.survivors) and args.workdir is None:
+        p.error("--resume and --survivors continue the run in --workdir")
+    if args.survivors and args.sample is not None:
+        p.error("--survivors keeps the run's own sample (--resume --sample N widens it to N)")
     workdir = args.workdir or Path(tempfile.mkdtemp(prefix="rtctl-mutation-"))
     names = GROUPS.get(args.target, [args.target])
-    results = [resume_target(n, workdir, args.rev, widen=not args.survivors) if args.resume or args.survivors
-               else run_target(n, workdir, args.sample, args.rev) for n in names]
+    results = [resume_target(n, workdir, args.rev, widen=not args.survivors, sample=args.sample)
+               if args.resume or args.survivors
+               else run_target(n, workdir, args.sample, args.rev, count_only=args.count) for n in names]
     print(f"\n{'target':<18} {'mutants':>8} {'killed':>7} {'t/o':>5} {'survived':>9} {'rate':>7}")
     for r in results:
         rate = "" if r["survival_rate"] is None else f"{100 * r['survival_rate']:.1f} %"
