@@ -10,7 +10,7 @@ Exit codes (documented for systemd units and scripts):
   4  hardware could not be brought up (driver missing, link failed), or a device could
      not confirm its drives off at the end
   5  ``--enforce-rt`` and a real-time knob could not be applied
-  6  the control socket could not be reached (status/stop/estop/reset/move), or ``run``
+  6  the control socket could not be reached (status/stop/estop/reset/move/…), or ``run``
      found its control socket or telemetry file held by another running daemon
 """
 from __future__ import annotations
@@ -136,6 +136,33 @@ def _parser() -> argparse.ArgumentParser:
         s = sub.add_parser(name, help=text)
         s.add_argument("--socket", metavar="PATH", help="control socket path (default: $XDG_RUNTIME_DIR/rtctl.sock, or /tmp/rtctl-UID.sock "
                                                             "without XDG_RUNTIME_DIR)")
+    socket_help = "control socket path (default: as for `status`)"
+    s = sub.add_parser("controllers", help="list the running daemon's controllers: type, joints, rate, active or not, "
+                                           "and the parameters `set` may change")
+    s.add_argument("--socket", metavar="PATH", help=socket_help)
+    s = sub.add_parser("switch", help="activate controllers at the next tick, bumplessly; by default the ones "
+                                      "now driving their joints stop",
+                       description="Activate NAME… at one tick boundary. The controllers now driving the same joints "
+                                   "are deactivated (or exactly those given with --off). Refused if a joint would be "
+                                   "left without a controller or given two. The torque is blended from the old "
+                                   "controller's last command to the new one's (time constant 50 ms).")
+    s.add_argument("names", nargs="*", metavar="NAME", help="controllers to activate")
+    s.add_argument("--off", nargs="+", metavar="NAME", help="controllers to deactivate (default: those whose joints "
+                                                            "the activated ones take over)")
+    s.add_argument("--keep-estimates", action="store_true", help="an adaptive controller resumes from what it had "
+                                                                 "learnt (default: from its configured estimates)")
+    s.add_argument("--socket", metavar="PATH", help=socket_help)
+    s = sub.add_parser("get", help="read a live parameter: NAME.KEY (a controller's, or safety's)")
+    s.add_argument("key", metavar="NAME.KEY", help="e.g. ct.kp or safety.damping (`rtctl controllers` lists them)")
+    s.add_argument("--socket", metavar="PATH", help=socket_help)
+    s = sub.add_parser("set", help="change a live parameter at the next tick, checked as in the configuration file",
+                       description="VALUE is written as in the configuration file: a number (every joint) or an "
+                                   "array, e.g. '[400, 400, 100]'. The change is applied at one tick boundary, logged "
+                                   "and recorded in telemetry (column NAME.KEY). The robot model, the device layout "
+                                   "and the rate cannot change while the daemon runs.")
+    s.add_argument("key", metavar="NAME.KEY", help="e.g. ct.kp or safety.damping")
+    s.add_argument("value", metavar="VALUE", help="a number or a TOML array of numbers")
+    s.add_argument("--socket", metavar="PATH", help=socket_help)
     move = sub.add_parser("move", help="move to joint positions along a smooth trajectory")
     move.add_argument("q", type=_FINITE, nargs="+", help="target joint positions")
     move.add_argument("--deg", action="store_true", help="positions in degrees (revolute joints)")
@@ -182,7 +209,8 @@ def _parser() -> argparse.ArgumentParser:
 
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
-                                        "control-socket", "safety", "trajectory", "leg", "soak", "guard", "grabber"),
+                                        "control-socket", "safety", "trajectory", "leg", "soak", "guard", "grabber",
+                                        "switching"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
                             "PUMA 560; loop-timing: an empty loop (like cyclictest); can: codec and transports; "
                             "control: the Slotine–Li laws and arma_gmv; telemetry, control-socket, safety, trajectory: their per-tick costs; "
@@ -191,12 +219,13 @@ def _parser() -> argparse.ArgumentParser:
                             "overruns and lateness per minute, telemetry rows, drives left enabled; "
                             "guard: the per-tick interference guard (16 zones on 6 joints) and bypass planning "
                             "(against OMPL's RRT-Connect when the `bench` extra is installed); "
-                            "grabber: framegrabber driver, unpacking, marker, camera simulator")
+                            "grabber: framegrabber driver, unpacking, marker, camera simulator; "
+                            "switching: the loop untouched, then with 10 controller switches or gain sets per second")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
     bench.add_argument("--config", default=None, help="run configuration for `bench loop` (default: the shipped one)")
     bench.add_argument("--rate", type=_RATE, default=1000.0, help="loop rate for `bench loop` (Hz)")
-    bench.add_argument("--seconds", type=_SECONDS, default=10.0, help="duration for `bench loop` (s)")
+    bench.add_argument("--seconds", type=_SECONDS, default=10.0, help="duration for `bench loop` and `bench switching` (s)")
     bench.add_argument("--minutes", type=_SECONDS, default=10.0,
                        help="duration for `bench soak` (default 10; --config: another HIL configuration)")
 
@@ -268,7 +297,7 @@ def _dispatch(args) -> int:
         from rtctl.commands import print_model
 
         return print_model(args)
-    if args.command in ("status", "stop", "estop", "reset", "move"):
+    if args.command in ("status", "stop", "estop", "reset", "move", "controllers", "switch", "get", "set"):
         from rtctl.control_socket.command import control_request
 
         return control_request(args)

@@ -150,6 +150,10 @@ def bench(args) -> int:
         from rtctl.bench.can import bench_can as run, format_table
 
         result = run()
+    elif args.what == "switching":
+        from rtctl.bench.switching import bench_switching as run, format_table
+
+        result = run(args.seconds)
     elif args.what == "soak":
         from rtctl.bench.soak import bench_soak as run, format_table
 

@@ -14,7 +14,8 @@ Layout of a run configuration (paths are relative to the file)::
     [[devices]]   name, kind ("joints" by default), driver (entry point in rtctl.drivers),
                   joints (kind "joints" only), driver options …
     [[controllers]] name, type, joints ([] for an observer that owns no command), divisor,
-                  devices (names of non-joint devices it uses), gains …
+                  devices (names of non-joint devices it uses), active (default true:
+                  false = built and checked, run only after `rtctl switch`), gains …
     [trajectory]  unit, waypoints, smooth, dwell, velocity/acceleration limits, durations
     [safety]      fallback, damping, stale_ticks, position_margin, estop_off_delay, following_error …
     [guard]       interference zones and the guard's settings (rtctl.guard.config)
@@ -78,6 +79,7 @@ class ControllerConfig:
     divisor: int
     options: Table  # controller-specific keys, validated by the controller
     devices: tuple[str, ...] = ()  # non-joint devices it uses, by name
+    active: bool = True  # false: configured and checked, started by `rtctl switch`
 
 
 @dataclass(frozen=True)
@@ -273,7 +275,12 @@ def _controllers(t: Table, model: Model) -> tuple[ControllerConfig, ...]:
     for c in t.tables("controllers", []):
         out.append(ControllerConfig(
             name=c.str("name"), type=c.str("type"), joints=joint_indices(c, "joints", model, allow_empty=True),
-            divisor=c.int("divisor", 1, min=1), devices=_names(c, "devices"), options=c))
+            divisor=c.int("divisor", 1, min=1), devices=_names(c, "devices"), active=c.bool("active", True),
+            options=c))
+    names = [c.name for c in out]
+    for i, name in enumerate(names):
+        if name in names[:i]:
+            raise t.error(f"controllers[{i}].name", f"a name no other controller has; {name!r} is taken")
     return tuple(out)
 
 
@@ -286,14 +293,23 @@ def _names(t: Table, key: str) -> tuple[str, ...]:
 
 
 def _check_owners(t: Table, controllers) -> None:
-    """One owner per joint command (docs/architecture.md)."""
+    """One owner per joint command among the active controllers (docs/architecture.md); an
+    inactive one may only take over joints the active ones own (a switch moves joints between
+    controllers, it never leaves one without or gives one two)."""
     owner = {}
     for i, c in enumerate(controllers):
+        if not c.active:
+            continue
         for j in c.joints:
             if j in owner:
                 raise ConfigError(t.file, f"controllers[{i}].joints",
-                                  f"one controller per joint; joint {j} is already owned by {owner[j]!r}")
+                                  f"one controller per joint (among the active ones); joint {j} is already owned by {owner[j]!r}")
             owner[j] = c.name
+    for i, c in enumerate(controllers):
+        loose = [j for j in c.joints if j not in owner]
+        if not c.active and loose:
+            raise ConfigError(t.file, f"controllers[{i}].joints", f"joints an active controller owns (an inactive "
+                              f"one takes them over at a switch); joint {loose[0]} has no active owner")
 
 
 def _trajectory(t: Table | None, model: Model) -> TrajectoryConfig | None:

@@ -41,6 +41,7 @@ from rtctl.progress import Progress, interval_for
 from rtctl.hal import JointCommand, Status
 from rtctl.model.dynamics import gravity as gravity_of
 from rtctl.moves.pending import Moves
+from rtctl.live import LiveChanges
 from rtctl.operator import Operator
 from rtctl.runtime import build
 from rtctl.safety import SafetyStage
@@ -115,6 +116,7 @@ class Daemon:
         self.telemetry_failure: str | None = None
         self.tick = Tick(runtime, self.ticker, self.safety)
         self.moves = Moves(cfg, self.limits, cfg.loop.period)  # `move`: planned in its own process
+        self.live = LiveChanges(self)  # switch controllers, get/set parameters while it runs
         self.operator = Operator(self)  # what the control socket's commands do
         self.log_in_background = False  # `rtctl run`: the log through a writer thread
 
@@ -249,7 +251,7 @@ class Daemon:
         ref = self.rt.ref
         self.tick.trajectory = trajectory
         trajectory.sample(t, ref.q, ref.qd, ref.qdd)
-        for c in self.rt.controllers:
+        for c in self.rt.configured:  # (the inactive ones too: a switch starts them from here)
             c.reset(self.rt.state)
 
     def _warm_up_groups(self) -> list:
@@ -262,7 +264,7 @@ class Daemon:
         devices = [(f"device {d.name}", d.warm_up) for d in self.rt.all_devices if hasattr(d, "warm_up")]
         guard = [("guard", lambda: guarded.warm_up(self.cfg, self.guard))] if self.guard is not None else []
         controllers = [(f"controller {c.name}", lambda c=c: c.update(0.0, self.rt.state, self.rt.ref, scratch))
-                       for c in self.rt.controllers]
+                       for c in self.rt.configured]  # (an inactive one compiled now, not at its switch)
         return devices + guard + controllers + [("safety stage", lambda: self._warm_up_safety(scratch)),
                                                 ("tick", self.tick.warm_up)]
 
@@ -374,11 +376,14 @@ class Daemon:
                   "tau": (n, "f8"), "phase_ns": (len(DAEMON_PHASES), "i8")}
         sources = {"q": rt.state.position, "qd": rt.state.velocity, "q_des": rt.ref.q, "qd_des": rt.ref.qd,
                    "tau": rt.command.tau_ff}
-        for c in rt.controllers:
+        for c in rt.configured:
             for name, arr in c.internals.items():
                 col = name if name not in schema else f"{c.name}.{name}"
                 schema[col] = (arr.shape, arr.dtype.str)
                 sources[col] = arr
+        for col, arr in self.live.telemetry_columns().items():
+            schema[col] = (arr.shape, arr.dtype.str)
+            sources[col] = arr
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as e:
@@ -386,8 +391,9 @@ class Daemon:
             raise ConfigError(*where, f"a file in a directory that exists or can be created; "
                                       f"{path.parent}: {e.strerror or e}") from None
         meta = {"config": str(self.cfg.file), "robot": self.model.name, "joints": list(self.model.joint_names),
-                "rate_hz": self.cfg.loop.rate_hz, "phases": list(DAEMON_PHASES)}
-        for c in rt.controllers:  # e.g. the names of a vector column's entries: "leg_gates_labels"
+                "rate_hz": self.cfg.loop.rate_hz, "phases": list(DAEMON_PHASES),
+                "controllers": [c.name for c in rt.configured], "tunables": list(self.live.tunables)}
+        for c in rt.configured:  # e.g. the names of a vector column's entries: "leg_gates_labels"
             meta.update(getattr(c, "telemetry_meta", {}))
         rec = Recorder(path, schema, meta, block_rows=self.cfg.telemetry_batch,
                        wait_when_full=self.cfg.loop.realtime_factor == 0)
@@ -401,6 +407,7 @@ class Daemon:
         summary = {"config": str(self.cfg.file), "robot": self.model.name, "exit_code": self.exit_code,
                    "stop_reason": self.stop_reason, "timing": self.ticker.summary(),
                    "tracking_error_rad": self.tick.tracking_summary(), "safety": self.safety.summary(),
+                   "operator": {"events": self.live.events},
                    "devices": {d.name: d.diagnostics() for d in self.rt.all_devices}}
         if self.recorder is not None:
             summary["telemetry"] = {"path": str(self.recorder.path), "rows": self.recorder.rows,

@@ -9,7 +9,8 @@ status reply, the hand-over of a ``move`` to the planner process — and nothing
   stays up; a pending move is cancelled;
 * ``reset`` — clears the faults whose cause is gone and re-enables every device, all or none;
 * ``move`` — planned in another process (:mod:`rtctl.moves`), answered once started;
-* ``status`` — where the robot is and what the daemon is doing.
+* ``status`` — where the robot is and what the daemon is doing;
+* ``controllers``, ``switch``, ``get``, ``set`` — live changes (:mod:`rtctl.live`).
 """
 from __future__ import annotations
 
@@ -40,6 +41,14 @@ class Operator:
             return self.reset()
         if cmd == "move":
             return self.move(req)
+        if cmd == "controllers":
+            return self.d.live.controllers()
+        if cmd == "switch":
+            return self.d.live.switch(req)
+        if cmd == "get":
+            return self.d.live.get(req)
+        if cmd == "set":
+            return self.d.live.set(req)
         raise RtctlError(f"unknown command {cmd!r}")
 
     def stop(self) -> dict:

@@ -37,13 +37,14 @@ class Runtime:
     cfg: Config
     devices: list  # the joint devices (JointGroup)
     device_joints: list  # per joint device: indices of its joints in the robot
-    controllers: list
+    controllers: list  # the active ones, in the configuration's order: what the tick runs
     state: JointState  # the whole robot, gathered from the devices every tick
     command: JointCommand  # the whole robot, scattered to the devices every tick
     ref: Reference
     context: DeviceContext
     io: dict = field(default_factory=dict)  # the other devices (framegrabber, I/O board …) by name
     io_users: list = field(default_factory=list)  # per io device (in order): the controllers using it
+    configured: list = field(default_factory=list)  # every controller, active or not (`rtctl switch`)
 
     @property
     def all_devices(self) -> list:
@@ -99,7 +100,9 @@ def build(cfg: Config) -> Runtime:
         state, command = devices[0].state, devices[0].command
     else:
         state, command = JointState(n), JointCommand(n)
-    return Runtime(cfg, devices, device_joints, controllers, state, command, Reference(n), context, io, io_users)
+    active = [c for c, conf in zip(controllers, cfg.controllers) if conf.active]
+    return Runtime(cfg, devices, device_joints, active, state, command, Reference(n), context, io, io_users,
+                   controllers)
 
 
 def _driver(cfg: Config, i: int, d):

@@ -23,6 +23,7 @@ from rtctl.compiled import kernel
 from rtctl.hal import Status
 from rtctl.safety import Verdict
 from rtctl.safety.faults import device_reason
+from rtctl.switching import Blend
 from rtctl.timing import READ, RECORD, SAFETY, UPDATE, WRITE
 
 OK = int(Status.OK)
@@ -62,6 +63,8 @@ class Tick:
         self.samples = 0
         self.tracks = any(c.follows_reference for c in runtime.controllers)  # else no tracking error means anything
         self.phase_row = None  # telemetry view of the phase times, when recording
+        self.blend = Blend(n, ticker.period_ns * 1e-9)
+        self.starting = ()  # controllers started by a switch: they update at the next tick whatever their divisor
 
     def __call__(self, t: float) -> Verdict:
         rt, ticker = self.rt, self.ticker
@@ -92,15 +95,19 @@ class Tick:
 
         if self.trajectory is not None:
             self.trajectory.sample(t, ref.q, ref.qd, ref.qdd)
+        starting = self.starting
         for c in rt.controllers:
             if device_error is not None and self._uses_failed_device(c):
                 continue
-            if ticker.due(c.divisor):
+            if ticker.due(c.divisor) or (starting and c in starting):
                 try:
                     c.update(t, state, ref, command)
                 except Exception as e:  # the safety stage engages the fallback this same tick
                     controller_ok = False
                     self.controller_error = f"{c.name}: {type(e).__name__}: {e}"
+        if self.blend.left:
+            self.blend.apply(command.tau_ff, ticker.due)
+            self.starting = ()
         ticker.mark(UPDATE)
 
         self.verdict = self.safety.check(t, ticker.tick, state, self.statuses, command, controller_ok,
@@ -127,6 +134,14 @@ class Tick:
             self.recorder.record()
         ticker.mark(RECORD)
         return self.verdict
+
+    def switch(self, active: list, started: list) -> None:
+        """Make ``active`` the controllers of the next tick; ``started`` (already reset) take
+        over their joints bumplessly from the torque last commanded (:mod:`rtctl.switching`)."""
+        self.rt.controllers[:] = active
+        self.tracks = any(c.follows_reference for c in active)
+        self.starting = tuple(started)
+        self.blend.begin(self.rt.command.tau_ff, started)
 
     def _uses_failed_device(self, controller) -> bool:
         for i, users in enumerate(self.rt.io_users):

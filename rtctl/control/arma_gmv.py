@@ -28,6 +28,7 @@ import numpy as np
 from rtctl.compiled import kernel, leaf
 from rtctl.control.base import Controller
 from rtctl.control.gmv import gmv_law, gmv_phi
+from rtctl.control.tunable import Tunable
 from rtctl.errors import ControllerError
 from rtctl.estimation.arx import MAX_ORDER, ArxOrder, push_history, regressor_into
 from rtctl.estimation.sage_husa import (QUANTITIES, SWITCH_NAMES, SageHusa, first_nonfinite, sage_husa_step,
@@ -160,10 +161,22 @@ class ArmaGmv(Controller):
         t.done()
         return c
 
+    def tunables(self) -> dict:
+        m = len(self.joints)
+        return {"rho": Tunable(self.joint_params[RHO], lambda t, k: _per_joint(t, k, m, positive=True))}
+
     def reset(self, state=None) -> None:
         """Initial estimates; histories start at the measured position (``state``) with u = 0."""
         f = self.filter
         f.reset()
+        self.u_hist[:] = 0.0
+        self.y_hist[:] = 0.0 if state is None else state.position[self.joints]
+        self.iset[PRIMED] = 0
+        self._t_prev = math.nan
+
+    def resume(self, state=None) -> None:
+        """Keep θ̂, P and the noise statistics; restart the histories from ``state`` (the
+        samples before the controller was inactive say nothing of now)."""
         self.u_hist[:] = 0.0
         self.y_hist[:] = 0.0 if state is None else state.position[self.joints]
         self.iset[PRIMED] = 0

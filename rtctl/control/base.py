@@ -60,8 +60,18 @@ class Controller:
         if devices:
             raise ValueError(f"{type(self).__name__} uses no devices; got {', '.join(devices)}")
 
+    def tunables(self) -> dict:
+        """The parameters ``rtctl set`` may change while it runs: name →
+        :class:`~rtctl.control.tunable.Tunable` (none by default)."""
+        return {}
+
     def reset(self, state: JointState) -> None:
         """Forget history (integrators, estimates) before (re)starting from ``state``."""
+
+    def resume(self, state: JointState) -> None:
+        """Start again after a time inactive, keeping what was learnt (an adaptive controller's
+        estimates); without estimates, the same as :meth:`reset`."""
+        self.reset(state)
 
     def update(self, t: float, state: JointState, ref: Reference, command: JointCommand) -> None:
         raise NotImplementedError

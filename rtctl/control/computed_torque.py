@@ -16,6 +16,7 @@ from rtctl.compiled import kernel
 from rtctl.control.base import Controller, emit_owned
 from rtctl.control.gains import per_joint
 from rtctl.control.motor import motor_feedforward_add
+from rtctl.control.tunable import Tunable
 from rtctl.model.dynamics import Data, model_arrays
 from rtctl.model.rnea import rnea_kernel
 
@@ -61,6 +62,11 @@ class ComputedTorque(Controller):
                 motor_model=t.bool("motor_model", True))
         t.done()
         return c
+
+    def tunables(self) -> dict:
+        n = self.model.nq
+        return {"kp": Tunable(self.kp, lambda t, k: per_joint(t, k, n)),
+                "kd": Tunable(self.kd, lambda t, k: per_joint(t, k, n))}
 
     def update(self, t, state, ref, command):
         a, d = self.arrays, self.data

@@ -12,6 +12,7 @@ import numpy as np
 from rtctl.compiled import kernel
 from rtctl.control.base import Controller
 from rtctl.control.gains import per_joint
+from rtctl.control.tunable import Tunable
 from rtctl.model.dynamics import Data, model_arrays
 from rtctl.model.rnea import rnea_kernel
 
@@ -41,6 +42,11 @@ class PDGravity(Controller):
         c = cls(cfg.name, model, per_joint(t, "kp", n), per_joint(t, "kd", n), cfg.joints, cfg.divisor)
         t.done()
         return c
+
+    def tunables(self) -> dict:
+        n = self.model.nq
+        return {"kp": Tunable(self.kp, lambda t, k: per_joint(t, k, n)),
+                "kd": Tunable(self.kd, lambda t, k: per_joint(t, k, n))}
 
     def update(self, t, state, ref, command):
         a, d = self.arrays, self.data

@@ -39,6 +39,7 @@ import numpy as np
 
 from rtctl.control.base import Controller
 from rtctl.control.gains import per_joint
+from rtctl.control.tunable import Tunable
 from rtctl.control.slotine_li_kernels import ARMATURE, CLASSIC, COULOMB, COULOMB_VELOCITY, CSTAR, \
     DEAD_ZONE, KD, LAM, LAW, MOTOR, PROJECT, STEP, TAU, VISCOUS, CUT_ROW, slotine_li_update_kernel, \
     work_rows
@@ -164,6 +165,11 @@ class SlotineLi(Controller):
         t.done()
         return c
 
+    def tunables(self) -> dict:
+        n = self.model.nq
+        return {"lam": Tunable(self.lam, lambda t, k: per_joint(t, k, n)),
+                "kd": Tunable(self.kd, lambda t, k: per_joint(t, k, n))}
+
     def compute(self, q, qd, q_des, qd_des, qdd_des):
         """(τ, dπ̂/dt) for one tick at the current estimates; changes no state (allocates its
         result: use :meth:`update` in a loop)."""
@@ -183,6 +189,12 @@ class SlotineLi(Controller):
         self.params_hat[:] = self.params0
         self.params_dot[:] = 0.0
         self._work[2][CUT_ROW:] = 0.0  # the projection's remembered cut directions
+        self._t_prev = np.nan
+
+    def resume(self, state=None) -> None:
+        """Keep π̂ as it is; the next update starts a fresh integration (no step over the time
+        the controller was inactive)."""
+        self.params_dot[:] = 0.0
         self._t_prev = np.nan
 
     def update(self, t, state, ref, command):

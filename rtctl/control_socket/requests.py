@@ -13,6 +13,13 @@ move       exactly one of ``q``: [n numbers] (target joint positions) or ``waypo
            from the start of the move at which each waypoint is reached: honoured exactly, or
            the move is refused with the limit it breaks), ``deg``: bool (positions in
            degrees; default false)
+controllers —      (each configured controller: type, joints, rate, active or not, its tunable parameters)
+switch     ``activate``, ``deactivate``: [controller names] (not both empty; ``deactivate`` absent:
+           the active controllers of the joints the activated ones take over);
+           optional ``estimates``: "initial" (default: the controllers that start begin from their
+           configured estimates) or "keep" (an adaptive controller keeps what it had learnt)
+get        ``key``: "NAME.KEY" (a controller's or ``safety``'s parameter)
+set        ``key``: "NAME.KEY", ``value``: a number or a list of numbers (as in the configuration)
 =========  ====================================================================================
 
 :func:`validate` turns a decoded request into the dict the daemon's handler receives:
@@ -36,7 +43,13 @@ COMMANDS = {
     "estop": frozenset(),
     "reset": frozenset(),
     "move": frozenset({"q", "waypoints", "duration", "times", "deg"}),
+    "controllers": frozenset(),
+    "switch": frozenset({"activate", "deactivate", "estimates"}),
+    "get": frozenset({"key"}),
+    "set": frozenset({"key", "value"}),
 }
+ESTIMATES = ("initial", "keep")
+MAX_NAME = 200
 
 
 class InvalidRequest(ValueError):
@@ -103,6 +116,39 @@ def _move(request: dict, n_joints: int | None) -> dict:
     return out
 
 
+def _names(request: dict, field: str) -> list[str] | None:
+    if field not in request:
+        return None
+    names = request[field]
+    if not isinstance(names, list) or not all(isinstance(x, str) and 0 < len(x) <= MAX_NAME for x in names):
+        raise InvalidRequest(f"switch.{field}: expected a list of controller names")
+    if len(set(names)) != len(names):
+        raise InvalidRequest(f"switch.{field}: a controller named twice")
+    return names
+
+
+def _switch(request: dict) -> dict:
+    out = {"cmd": "switch", "activate": _names(request, "activate") or [],
+           "deactivate": _names(request, "deactivate"), "estimates": request.get("estimates", "initial")}
+    if not out["activate"] and not out["deactivate"]:
+        raise InvalidRequest("switch: name controllers to activate and/or deactivate")
+    if out["estimates"] not in ESTIMATES:
+        raise InvalidRequest(f"switch.estimates: expected one of {', '.join(ESTIMATES)}, got {out['estimates']!r}")
+    return out
+
+
+def _parameter(request: dict) -> dict:
+    key = request.get("key")
+    if not isinstance(key, str) or "." not in key or len(key) > MAX_NAME:
+        raise InvalidRequest(f"{request['cmd']}.key: expected \"NAME.KEY\" (e.g. ct.kp), got {key!r}")
+    out = {"cmd": request["cmd"], "key": key}
+    if request["cmd"] == "set":
+        if "value" not in request:
+            raise InvalidRequest("set.value: missing; expected a number or a list of numbers")
+        out["value"] = request["value"]  # checked by the parameter's own reader, as in the config file
+    return out
+
+
 def validate(request, n_joints: int | None = None) -> dict:
     """The handler's view of ``request``, or :class:`InvalidRequest` saying what is wrong."""
     if not isinstance(request, dict):
@@ -114,4 +160,10 @@ def validate(request, n_joints: int | None = None) -> dict:
     if unknown:
         allowed = ", ".join(sorted(COMMANDS[cmd])) or "none"
         raise InvalidRequest(f"{cmd}: unknown field(s) {', '.join(sorted(map(str, unknown)))}; allowed: {allowed}")
-    return _move(request, n_joints) if cmd == "move" else {"cmd": cmd}
+    if cmd == "move":
+        return _move(request, n_joints)
+    if cmd == "switch":
+        return _switch(request)
+    if cmd in ("get", "set"):
+        return _parameter(request)
+    return {"cmd": cmd}

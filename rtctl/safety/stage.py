@@ -255,6 +255,17 @@ class SafetyStage:
     def deactivated(self) -> bool:
         return self._deactivated
 
+    def tunables(self) -> dict:
+        """The fallback's gains, which ``rtctl set safety.…`` may change (read as in ``[safety]``)."""
+        from rtctl.control.tunable import Tunable
+
+        def damping(value):
+            self.fb[k.HOLD_KD] = value
+            self.fb[k.DAMP_KD] = value
+
+        return {"hold_stiffness": Tunable(self.fb[k.HOLD_KP], lambda t, key: t.float(key, min=0.0)),
+                "damping": Tunable(self.fb[k.HOLD_KD], lambda t, key: t.float(key, min=0.0), damping)}
+
     def summary(self) -> dict:
         """JSON-able (non-finite values stay floats: serialise with :mod:`rtctl.jsonout`):
         latched faults, the normal stop if one began, events, clamp counts per joint."""

@@ -101,8 +101,9 @@ def export_mcap(path, out) -> Counts:
     if command:
         channels["/joint_commands"] = (_schema("rtctl.JointCommand", name=_NAMES,
                                                **{k: _NUMBERS for k in command}), command)
+    tunables = set(tel.meta.get("tunables") or ())  # parameters: their changes are /events, not a stream
     for column in tel.columns:
-        if column not in _STATE_COLUMNS:
+        if column not in _STATE_COLUMNS and column not in tunables:
             channels[f"/controller/{column}"] = (_schema(f"rtctl.controller.{column}", data=_NUMBERS),
                                                  {"data": _rows(tel[column])})
     if "phase_ns" in tel:
@@ -155,7 +156,7 @@ def _add(writer, channel: int, t: float, message: dict, sequence: int) -> None:
 
 
 def _events(t, tel, summary) -> list[dict]:
-    """Start, the safety stage's events, end — as foxglove.Log messages (plus their time ``t``)."""
+    """Start, the safety stage's events, the operator's live changes, end — as foxglove.Log messages (plus their time ``t``)."""
     events = [(float(t[0]), 2, "started", {"config": tel.meta.get("config"), "robot": tel.meta.get("robot")})]
     if summary is not None:
         safety = summary.get("safety") or {}
@@ -163,6 +164,9 @@ def _events(t, tel, summary) -> list[dict]:
             fields = {k: v for k, v in e.items() if k not in ("event", "t", "tick")}
             warn = e["event"] in _WARNING_EVENTS or (e["event"] == "deactivate" and safety.get("faulted"))
             events.append((float(e["t"]), 3 if warn else 2, e["event"], {"tick": e.get("tick"), **fields}))
+        for e in (summary.get("operator") or {}).get("events", []):  # live changes: switch, set
+            fields = {k: v for k, v in e.items() if k not in ("event", "t", "tick")}
+            events.append((float(e["t"]), 2, e["event"], {"tick": e.get("tick"), **fields}))
         events.append((float(t[-1]), 2 if summary.get("exit_code") == 0 else 4, "ended",
                        {"stop_reason": summary.get("stop_reason"), "exit_code": summary.get("exit_code")}))
     out = []

@@ -90,7 +90,7 @@ def test_a_run_exports_to_mcap_with_every_channel(tmp_path):
 
     topics = {topic for topic, *_ in got}
     assert topics == {"/joint_states", "/joint_commands", "/controller/params_hat", "/controller/s", "/timing",
-                      "/events"}
+                      "/events", "/controller/controllers_active"}  # (the tunable gains: their sets are /events)
     for topic, schema, _, msg, _ in got:
         check_against_schema(schema, msg)
     times = [log_time for *_, log_time in got]
