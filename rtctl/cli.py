@@ -250,6 +250,9 @@ def _add_leg_parser(sub) -> None:
         p = legsub.add_parser(name, help=text, description=text)
         p.add_argument("table", nargs="?", default=str(LEG_TABLE),
                        help="event table (TOML; default: the shipped configs/leg/table3.toml)")
+        p.add_argument("--semantics", choices=("exact", "guard"), default="exact",
+                       help="exact (default): an exit fires only on the table's gate vector, every other "
+                            "vector holds; guard: on its single gate event (what the shipped leg jobs run)")
         if name == "compile":
             p.add_argument("--pla", metavar="PATH", help="also write the PLA in Berkeley (espresso) .pla format")
 

@@ -44,7 +44,7 @@ def bench_compile() -> list[dict]:
             t0 = time.perf_counter()
             table = load_table(path)
             circuit = compile_table(table)
-            model = CircuitModel.from_pla(circuit.pla, table.n_gates, circuit.n_bits, circuit.assignment.settle_passes)
+            model = CircuitModel.from_pla(circuit.pla, table.n_gates, circuit.n_bits, circuit.settle_passes)
             ok = not agreement(circuit, model)["mismatches"] and race_proof(circuit, model).ok
             rows.append({"table": kind, "states": n, "gates": gates, "seconds": time.perf_counter() - t0,
                          "flip_flops": circuit.n_bits, "terms": circuit.pla.n_terms, "passes": model.max_passes,

@@ -13,9 +13,11 @@ The circuit is synthesised from the event table at configuration (:mod:`rtctl.lo
 Options (``[[controllers]]``, type ``leg_automaton``)::
 
     table = "leg/table3.toml"     # the event table, relative to the configuration
+    semantics = "guard"           # each exit on its single gate event (the shipped jobs); "exact"
+                                  # (default): only on the table's gate vector, every other holds
     devices = ["board"]           # the leg board (a LegBoard) whose channels and actions it uses
     hysteresis = true             # false: every gate a plain comparator (to see why it is there)
-    max_passes = 4                # settle limit (default: what the circuit needs + 1; less than it needs: exit 2)
+    max_passes = 8                # settle limit (default: what the circuit needs + 1; less than it needs: exit 2)
     gates.t_d = { channel = "toe", threshold = 0.15, hysteresis = 0.1 }   # one per table gate
     gates.h_d2 = { channel = "hip", threshold = -11, hysteresis = 2, below = true }
 
@@ -36,6 +38,7 @@ from rtctl.errors import RtctlError
 from rtctl.hal.leg_board import CHANNELS, LegBoard
 from rtctl.logic import CircuitModel, compile_table, load_table
 from rtctl.logic.emulate import settle
+from rtctl.logic.synth import SEMANTICS
 
 ANGLES = ("hip", "knee", "ankle")
 # data layout (int64): state code, output word, gate word, passes, state label, gate bits …
@@ -75,21 +78,21 @@ def automaton_tick(channels, gates, pla, labels, data, actions, n_bits, max_pass
 
 class LegAutomaton(Controller):
     follows_reference = False  # the gait, not a trajectory, sets the joints' motion
-    def __init__(self, name, model, table, gate_rows, joints=None, divisor=1, max_passes=None):
+    def __init__(self, name, model, table, gate_rows, joints=None, divisor=1, max_passes=None, semantics="exact"):
         """``table``: an :class:`~rtctl.logic.table.EventTable`; ``gate_rows``: [4, gates] —
         channel index, threshold, half hysteresis, sense (+1 above, −1 below), SI units;
         ``max_passes``: the settle limit, at least what the synthesised circuit needs
-        (default: that, plus one spare)."""
+        (default: that, plus one spare); ``semantics``: "guard" or "exact" (module doc)."""
         super().__init__(name, model, joints, divisor)
         self.table = table
         if self.table.n_actuators != 4:
             raise ValueError("the leg's event table needs 4 actuator bits (K1 K2 A1 A2)")
-        self.circuit = compile_table(self.table)
-        needed = self.circuit.assignment.settle_passes
+        self.circuit = compile_table(self.table, semantics)
+        needed = self.circuit.settle_passes
         if max_passes is None:
             max_passes = needed + 1
         if max_passes < needed:
-            raise ValueError(f"max_passes: at least {needed} (the circuit's longest route is {needed - 1} flip-flop "
+            raise ValueError(f"max_passes: at least {needed} (the circuit's longest path is {needed - 1} flip-flop "
                              f"changes, and one pass confirms the state), got {max_passes}")
         self.cm = CircuitModel.from_pla(self.circuit.pla, self.table.n_gates, self.circuit.n_bits, max_passes)
         self.gates = np.ascontiguousarray(gate_rows, dtype=float)
@@ -132,8 +135,9 @@ class LegAutomaton(Controller):
             spec.done()
         gates_t.done()
         max_passes = t.int("max_passes", 0, min=1, max=64) if t.has("max_passes") else None
+        semantics = t.str("semantics", "exact", choices=SEMANTICS)
         try:
-            c = cls(cfg.name, model, table, rows, cfg.joints, cfg.divisor, max_passes)
+            c = cls(cfg.name, model, table, rows, cfg.joints, cfg.divisor, max_passes, semantics)
         except ValueError as e:
             if str(e).startswith("max_passes"):
                 raise t.error("max_passes", str(e).split(": ", 1)[1]) from None

@@ -90,15 +90,17 @@ class SearchResult:
     tried: tuple
 
 
-def candidate_assignments(flow: FlowTable, budget: int = SEARCH_BUDGET) -> SearchResult:
+def candidate_assignments(flow: FlowTable, budget: int = SEARCH_BUDGET, firing=None) -> SearchResult:
     """Race-free assignments with the fewest route steps found (see the module doc);
-    :class:`AssignmentError` saying what was tried when there is none."""
+    :class:`AssignmentError` saying what was tried when there is none. ``firing``: (state,
+    gate vector) of each transition → the gate vectors it fires on, as an int bit mask (the
+    guard semantics, :mod:`rtctl.logic.guard`); by default each fires on its own vector."""
     n_states = len(flow.states)
     if n_states > 1 << MAX_BITS:
         raise AssignmentError(f"{n_states} states need more than {MAX_BITS} flip-flops")
     tried = []
     for bits in range(max(1, (n_states - 1).bit_length()), MAX_BITS + 1):
-        search = _Search(flow, bits, budget)
+        search = _Search(flow, bits, budget, firing)
         search.run()
         tried.append((bits, search.nodes, search.complete))
         if search.best:
@@ -112,8 +114,9 @@ def candidate_assignments(flow: FlowTable, budget: int = SEARCH_BUDGET) -> Searc
 class _Search:
     """Branch and bound over the codes of the states in order (see the module doc)."""
 
-    def __init__(self, flow: FlowTable, bits: int, budget: int):
+    def __init__(self, flow: FlowTable, bits: int, budget: int, firing=None):
         self.flow, self.bits, self.budget = flow, bits, budget
+        self.firing = firing or {(tr.state, tr.gates): 1 << tr.gates for tr in flow.transitions}
         self.size = 1 << bits
         self.others = [s for s in flow.states if s != flow.initial]
         self.index = {flow.initial: -1, **{s: i for i, s in enumerate(self.others)}}
@@ -186,7 +189,7 @@ class _Search:
         found = []
         for choice in product(*options.values()):
             self.nodes += 1
-            if _consistent(options, choice):
+            if _consistent(options, choice, self.firing):
                 found.append(Assignment(self.bits, dict(self.code), dict(zip(options, choice))))
             if len(found) >= MAX_CANDIDATES or self.nodes >= self.budget:
                 break
@@ -256,11 +259,14 @@ def _shortest_paths(a: int, b: int, bits: int, used: set) -> list[tuple[int, ...
     return paths
 
 
-def _consistent(options, choice) -> bool:
-    """No spare code is told to go two ways under the same gate vector."""
-    step = {}
-    for (_, x), path in zip(options, choice):
+def _consistent(options, choice, firing) -> bool:
+    """No spare code is told to go two ways under the same gate vector: routes through one
+    spare code that step to different codes fire on disjoint sets of gate vectors."""
+    steps: dict = {}  # spare code → [(next code, gate vectors as a bit mask)]
+    for key, path in zip(options, choice):
         for a, b in zip(path[1:-1], path[2:]):
-            if step.setdefault((a, x), b) != b:
-                return False
+            for other, mask in steps.setdefault(a, []):
+                if other != b and mask & firing[key]:
+                    return False
+            steps[a].append((b, firing[key]))
     return True

@@ -15,9 +15,9 @@ def leg_command(args) -> int:
 
         args.pla = output_path(args.pla, "--pla")
     table = load_table(args.table)
-    circuit = compile_table(table)
+    circuit = compile_table(table, args.semantics)
     # the proofs hold the circuit to what its routes need: one pass per flip-flop change + one that confirms
-    model = CircuitModel.from_pla(circuit.pla, table.n_gates, circuit.n_bits, circuit.assignment.settle_passes)
+    model = CircuitModel.from_pla(circuit.pla, table.n_gates, circuit.n_bits, circuit.settle_passes)
     if args.leg_command == "replay":
         print(format_replay(circuit, replay(circuit, model)))  # a row some order cannot end in is reported, not an error
         return 0

@@ -13,7 +13,7 @@ def _literal_term(table, term) -> str:
 
 def format_compile(circuit: Circuit, agreement: dict, race) -> str:
     table, flow, a, pla = circuit.table, circuit.flow, circuit.assignment, circuit.pla
-    out = [f"{table.file}: {table.name}",
+    out = [f"{table.file}: {table.name} ({circuit.semantics} semantics)",
            f"{len(table.states)} rows, {len(flow.states)} states, {table.n_gates} gates "
            f"({' '.join(table.gates)}), {table.n_actuators} actuator bits ({' '.join(table.actuators)})", "",
            "Flow table (gate bits in the order above; every other vector holds the state):"]
@@ -26,12 +26,20 @@ def format_compile(circuit: Circuit, agreement: dict, race) -> str:
         tr = g.transition
         alts = " | ".join(_literal_term(table, term) for term in g.terms)
         out.append(f"  {tr.state} → {tr.next} (step {table.steps[tr.row]}):  {alts}")
+    if circuit.guard is not None:
+        out += ["", "Guard semantics (each exit fires on its guard; two guards at once, or a cycle of them, hold):"]
+        for (s, t), terms in circuit.guard.exit_terms.items():
+            out.append(f"  {s} → {t}:  " + " + ".join(_literal_term(table, term) for term in terms))
+        unused = [g for i, g in enumerate(table.gates) if not any(c >> i & 1 for c, _ in pla.terms)]
+        out.append("  gates the circuit does not read: " + (", ".join(unused) or "none"))
+    else:
+        out += ["", "Exact semantics: each exit fires on its table vector only; every other vector holds."]
     q = " ".join(f"Q{k + 1}" for k in range(a.n_bits))
     out += ["", f"State assignment ({a.n_bits} J-K flip-flops, {q}; code 0 at power-on):"]
     for s in flow.states:
         out.append(f"  state {s} = {a.code_str(a.codes[s])}")
     for c in a.spare:
-        used = sorted({tr for (code, _), tr in a.intermediates.items() if code == c})
+        used = any(c in path[1:-1] for path in a.routes.values())
         out.append(f"  {a.code_str(c)} spare" + (", unstable intermediate state" if used else ", unused (don't care)"))
     for (s, x), path in a.routes.items():
         if len(path) > 2:
@@ -45,7 +53,9 @@ def format_compile(circuit: Circuit, agreement: dict, race) -> str:
                 f"{len(pla.inputs)} inputs, {len(pla.outputs)} outputs", pla.matrix(), "",
             "Verification (exhaustive):",
             f"  circuit = automaton on all {agreement['pairs']} (state, gates) pairs: "
-            f"{agreement['exit']} exits, {agreement['stay']} stays, {agreement['hold']} holds — "
+            f"{agreement['exit']} exits, {agreement['stay']} stays, "
+            + (f"{agreement['guard']} guard exits on vectors the table does not show, " if circuit.guard else "")
+            + f"{agreement['hold']} holds — "
             + ("OK" if not agreement["mismatches"] else f"{len(agreement['mismatches'])} MISMATCHES"),
             f"  no critical race: every flip-flop order from every state under every gate vector "
             f"({race.checked} cases; {race.races} with a choice of order) ends in the one stable state, "

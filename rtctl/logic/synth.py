@@ -11,6 +11,10 @@ The Moore outputs are functions of the state bits alone (spare codes don't-care)
 function is minimised exactly (:mod:`rtctl.logic.qm`); the PLA's AND plane is the set of
 distinct product terms, its OR plane which functions use each. Among the candidate
 assignments the smallest PLA wins (fewest product terms, then literals).
+
+Two semantics (docs/leg_automaton.md): ``"exact"`` moves only on the gate vectors the table
+shows and holds on every other; ``"guard"`` fires each exit on its guard, the single gate
+events of the paper's Fig. 8 (:mod:`rtctl.logic.guard`).
 """
 from __future__ import annotations
 
@@ -21,11 +25,13 @@ import numpy as np
 from rtctl.errors import ConfigError
 from rtctl.logic.assign import Assignment, AssignmentError, SearchResult, candidate_assignments
 from rtctl.logic.flow import FlowTable, flow_table
+from rtctl.logic.guard import GuardAutomaton, firing_masks, guard_automaton, guard_spec
 from rtctl.logic.pla import Pla
 from rtctl.logic.qm import MAX_VARIABLES, minimise_proved
 from rtctl.logic.table import EventTable
 
 DONT_CARE = -1
+SEMANTICS = ("guard", "exact")
 
 
 @dataclass(frozen=True)
@@ -37,6 +43,29 @@ class Circuit:
     pla: Pla
     unproved: tuple[str, ...] = ()  # functions whose cover was not proved minimum within its budget
     search: SearchResult | None = None  # how the assignment was found (None: given)
+    guard: GuardAutomaton | None = None  # the guard semantics' automaton; None: exact semantics
+
+    @property
+    def semantics(self) -> str:
+        return "exact" if self.guard is None else "guard"
+
+    @property
+    def settle_passes(self) -> int:
+        """Passes a settle needs: one per flip-flop change on the longest path the spec takes
+        from a state's code (a route; under the guard semantics a chain of exits), and one that
+        finds nothing more to change."""
+        longest = 0
+        for c in self.assignment.codes.values():
+            for x in range(self.spec.shape[1]):
+                q, n = c, 0
+                while self.spec[q, x] != q:
+                    q, n = int(self.spec[q, x]), n + 1
+                longest = max(longest, n)
+        return longest + 1
+
+    def next_state(self, state: int, gates: int) -> int:
+        """δ of the semantics the circuit was synthesised for."""
+        return self.flow.next_state(state, gates) if self.guard is None else self.guard.next_state(state, gates)
 
     @property
     def table(self) -> EventTable:
@@ -75,9 +104,9 @@ def excitation(spec: np.ndarray, n_gates: int, k: int):
     return (j_on, j_dc), (k_on, k_dc)
 
 
-def synthesise(flow: FlowTable, a: Assignment) -> Circuit:
+def synthesise(flow: FlowTable, a: Assignment, guard: GuardAutomaton | None = None) -> Circuit:
     ng, nb = flow.n_gates, a.n_bits
-    spec = next_code_spec(flow, a)
+    spec = next_code_spec(flow, a) if guard is None else guard_spec(guard, a)
     functions, unproved = {}, []
 
     def put(name, cubes_proved, shift=0):
@@ -95,7 +124,7 @@ def synthesise(flow: FlowTable, a: Assignment) -> Circuit:
         on = [c for s, c in a.codes.items() if flow.table.outputs[s] >> i & 1]
         put(name, minimise_proved(nb, on, spare), shift=ng)  # over the state bits: the gates don't care
     inputs = flow.table.gates + tuple(f"Q{k + 1}" for k in range(nb))
-    return Circuit(flow, a, functions, spec, Pla.from_functions(inputs, functions), tuple(unproved))
+    return Circuit(flow, a, functions, spec, Pla.from_functions(inputs, functions), tuple(unproved), guard=guard)
 
 
 def _output_names(table: EventTable, nb: int) -> tuple[str, ...]:
@@ -105,13 +134,16 @@ def _output_names(table: EventTable, nb: int) -> tuple[str, ...]:
     return tuple(f"{n}'" if n in jk else n for n in table.actuators)
 
 
-def compile_table(table: EventTable) -> Circuit:
+def compile_table(table: EventTable, semantics: str = "exact") -> Circuit:
     """The whole synthesis: flow table, assignment search, excitation, minimisation, PLA;
     the candidate with the smallest PLA (fewest product terms, then literals). A table without
     a race-free assignment is a :class:`ConfigError` naming its ``rows``."""
+    if semantics not in SEMANTICS:
+        raise ValueError(f"semantics must be one of {SEMANTICS}, got {semantics!r}")
     flow = flow_table(table)
+    guard = guard_automaton(flow) if semantics == "guard" else None
     try:
-        search = candidate_assignments(flow)
+        search = candidate_assignments(flow, firing=None if guard is None else firing_masks(guard))
     except AssignmentError as e:
         raise ConfigError(table.file, "rows", f"transitions that a race-free state assignment can code ({e})") from None
     bits = search.candidates[0].n_bits
@@ -121,7 +153,7 @@ def compile_table(table: EventTable) -> Circuit:
                                                f"{MAX_VARIABLES}); got {flow.n_gates}")
     best = None
     for a in search.candidates:
-        circuit = synthesise(flow, a)
+        circuit = synthesise(flow, a, guard)
         cost = (circuit.pla.n_terms, circuit.pla.n_literals)
         if best is None or cost < best[0]:
             best = (cost, circuit)

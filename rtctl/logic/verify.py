@@ -1,14 +1,17 @@
 """Exhaustive checks of a synthesised circuit against its flow table.
 
 * :func:`agreement` — on every (state, gate vector) pair, the emulated circuit settles where
-  the flow-table automaton goes: the exits and stays the table shows, and **hold** on every
-  vector the table never shows in that state.
+  the automaton of its semantics goes: the exits and stays the table shows, and on every
+  vector the table never shows in that state **hold** (exact semantics) or the chain of
+  guards (guard semantics, :mod:`rtctl.logic.guard`: an unseen vector may move the state).
 * :func:`race_proof` — for every state and every gate vector, every order in which the
   excited flip-flops can switch (any non-empty subset of them first, then again from there)
   ends in one and the same stable state, with no cycle, within the settle limit.
 * :func:`replay` — the event table row by row, each change between consecutive rows applied
   one bit at a time in every order, the circuit settling after each bit (fundamental mode);
-  every order must end in the row's state, and the report says where and why one does not.
+  every order must end in the row's state, and the report says where and why one does not
+  (under the exact semantics also an intermediate vector that moves the state: the table's
+  exits must not fire early; under the guard semantics firing on the first event is the point).
 """
 from __future__ import annotations
 
@@ -23,13 +26,13 @@ def agreement(circuit: Circuit, model: CircuitModel) -> dict:
     """Emulated circuit vs automaton on all states × 2ⁿ gate vectors."""
     flow, a = circuit.flow, circuit.assignment
     em = Emulator(model)
-    mismatches, counted = [], {"exit": 0, "stay": 0, "hold": 0}
+    mismatches, counted = [], {"exit": 0, "stay": 0, "guard": 0, "hold": 0}
     for s in flow.states:
         for x in range(1 << flow.n_gates):
             em.code = a.codes[s]
             passes = em.apply(x)
-            want = flow.next_state(s, x)
-            kind = "exit" if x in flow.exits[s] else "stay" if x in flow.stay[s] else "hold"
+            want = circuit.next_state(s, x)
+            kind = "exit" if x in flow.exits[s] else "stay" if x in flow.stay[s] else "hold" if want == s else "guard"
             counted[kind] += 1
             got = a.state_of(em.code) if passes != NOT_SETTLED else None
             out_ok = em.actuators == flow.table.outputs[want]
@@ -62,7 +65,7 @@ def race_proof(circuit: Circuit, model: CircuitModel) -> RaceReport:
             finals, cyclic, longest, choice = _explore(model, a.codes[s], x)
             report.longest = max(report.longest, longest)
             report.races += choice
-            want = a.codes[flow.next_state(s, x)]
+            want = a.codes[circuit.next_state(s, x)]
             if cyclic or finals != {want} or longest > model.max_passes - 1:
                 report.failures.append({"state": s, "gates": flow.table.gate_bits(x), "finals": sorted(finals),
                                         "expected": want, "cycle": cyclic, "longest": longest})
@@ -136,7 +139,7 @@ def replay(circuit: Circuit, model: CircuitModel, keep: int = 5) -> list[ReplayR
                     why = f"did not settle after {table.gates[i]} changed (gates {table.gate_bits(x)})"
                     break
                 after = a.state_of(em.code)
-                if after != before and x != x1:
+                if after != before and x != x1 and circuit.guard is None:
                     why = (f"the intermediate gates {table.gate_bits(x)} (after {table.gates[i]}) are an exit of "
                            f"state {before} to state {after}")
             reached = a.state_of(em.code)

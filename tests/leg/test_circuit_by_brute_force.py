@@ -72,3 +72,58 @@ def test_settle_counts_the_passes_that_changed_the_state(table3, circuit, model,
                 assert em.code == q
             counts[want] = counts.get(want, 0) + 1
     assert counts.get(0) and (max_passes == 1 or counts.get(1))  # stays and one-step changes both occur
+
+
+# -- the guard semantics (issue 29 part 2) ---------------------------------------------------
+
+@pytest.fixture(scope="module")
+def guard_circuit(table3):
+    from rtctl.logic import compile_table
+
+    return compile_table(table3, "guard")
+
+
+def test_guard_circuit_equals_the_independent_guard_reference_on_every_pair(table3, guard_circuit):
+    """All 6 × 256 (state, gate vector) pairs: the PLA stepped pass by pass from its terms (not
+    the compiled emulator) settles where the brute-force reference goes, one flip-flop at a
+    time (no pass excites two: no race, whatever the switching order), within the settle
+    limit; its actuator bits are that state's Moore output."""
+    from leg_guard_reference import GuardReference
+
+    ref = GuardReference(table3)
+    assert {k: sorted(v) for k, v in ref.guards.items()} == {
+        k: sorted(v) for k, v in guard_circuit.guard.exit_terms.items()}
+    a, n = guard_circuit.assignment, table3.n_gates
+    moved = 0
+    for s in table3.state_labels:
+        for x in range(1 << n):
+            q, changes = a.codes[s], 0
+            while changes < guard_circuit.settle_passes:
+                nxt = _pla_step(guard_circuit.pla, n, guard_circuit.n_bits, q, x)
+                if nxt == q:
+                    break
+                assert bin(nxt ^ q).count("1") == 1, (s, table3.gate_bits(x), q, nxt)  # single-flip-flop steps
+                q, changes = nxt, changes + 1
+            want = ref.next_state(s, x)
+            assert a.state_of(q) == want, (s, table3.gate_bits(x), a.state_of(q), want)
+            word = x | q << n
+            on = {guard_circuit.pla.outputs[o] for t, (care, value) in enumerate(guard_circuit.pla.terms)
+                  if word & care == value for o in np.flatnonzero(guard_circuit.pla.plane[t])}
+            bits = sum(1 << i for i, name in enumerate(("K1'", "K2'", "A1", "A2")) if name in on)
+            assert bits == table3.outputs[want]
+            moved += want != s
+    assert moved > 19 - 11  # unseen vectors move the state too: the guards, not the table's vectors
+
+
+def test_guard_circuit_race_proof_and_agreement(table3, guard_circuit):
+    from leg_guard_reference import GuardReference
+
+    from rtctl.logic import CircuitModel
+    from rtctl.logic.verify import agreement, race_proof
+
+    model = CircuitModel.from_pla(guard_circuit.pla, table3.n_gates, guard_circuit.n_bits, guard_circuit.settle_passes)
+    agree, race = agreement(guard_circuit, model), race_proof(guard_circuit, model)
+    ref = GuardReference(table3)
+    unseen_moves = sum(ref.next_state(s, x) != s for s in table3.state_labels for x in range(256)) - 8
+    assert not agree["mismatches"] and (agree["exit"], agree["stay"], agree["guard"]) == (8, 11, unseen_moves)
+    assert race.ok and race.checked == 1536 and race.longest == guard_circuit.settle_passes - 1

@@ -84,7 +84,7 @@ def test_a_spent_search_budget_says_so_and_is_a_configuration_error(tmp_path, mo
     with pytest.raises(AssignmentError, match="within the search budget"):
         candidate_assignments(flow_table(table), budget=3)
     monkeypatch.setattr("rtctl.logic.assign.SEARCH_BUDGET", 3)
-    monkeypatch.setattr(candidate_assignments, "__defaults__", (3,))
+    monkeypatch.setattr(candidate_assignments, "__defaults__", (3, None))
     with pytest.raises(ConfigError) as e:
         compile_table(table)
     assert e.value.key_path == "rows" and "search budget" in e.value.expected

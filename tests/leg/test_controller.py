@@ -38,13 +38,15 @@ def test_bad_controller_options_exit_2_naming_the_key(tmp_path, old, new, key, w
     assert e.value.key_path == key and words in e.value.expected, e.value
 
 
-@pytest.mark.parametrize("passes", [1, 2])
+@pytest.mark.parametrize("passes", [1, 2, 6])
 def test_a_settle_limit_below_what_the_circuit_needs_is_refused_naming_the_need(tmp_path, passes):
-    """Issue 26 item 5: the shipped circuit's longest route is 2 flip-flop changes, so a settle
-    needs 3 passes (2 changes + 1 that confirms); 1 or 2 used to pass check and fault at 0.1 s."""
+    """Issue 26 item 5: a settle limit below the circuit's need used to pass check and fault at
+    0.1 s. The shipped circuit (guard semantics, issue 29) chains exits within one settle: its
+    longest path (a chain of exits on one vector) is 6 flip-flop changes, so it needs 7 passes
+    (the exact-vector circuit needed 3)."""
     with pytest.raises(ConfigError) as e:
         build(load_config(_config(tmp_path, **{'table = "': f'max_passes = {passes}\ntable = "'})))
-    assert e.value.key_path == "controllers[0].max_passes" and "at least 3" in e.value.expected, e.value
+    assert e.value.key_path == "controllers[0].max_passes" and "at least 7" in e.value.expected, e.value
 
 
 def test_the_settle_limit_needed_is_the_longest_route_plus_one_confirming_pass(tmp_path):
@@ -56,7 +58,7 @@ def test_the_settle_limit_needed_is_the_longest_route_plus_one_confirming_pass(t
     from rtctl.logic.emulate import NOT_SETTLED, Emulator
 
     ctl = build(load_config(_config(tmp_path))).controllers[0]
-    needed = ctl.circuit.assignment.settle_passes
+    needed = ctl.circuit.settle_passes
     assert ctl.cm.max_passes == needed + 1  # the default keeps one spare
     flow, a = ctl.circuit.flow, ctl.circuit.assignment
 
