@@ -121,8 +121,8 @@ def bench_marker_and_sim(repeats: int = 200) -> dict:
     words = np.zeros((s.rows, s.words_per_row), dtype=np.uint32)
     band = range(0, -(-s.rows // 19))  # a field's work at 1 kHz: 19 bands after the posing tick
     pose_us = median_us(lambda: r.freeze(q, 512), repeats, 10)
-    draw_us = median_us(lambda: r.draw(analog, range(0, s.rows), 0, 2, 0, 512), 40, 4)
-    band_us = median_us(lambda: (r.draw(analog, band, 0, 2, 0, 512),
+    draw_us = median_us(lambda: r.draw(analog, range(0, s.rows), 0, 2, 0, 512, 512), 40, 4)
+    band_us = median_us(lambda: (r.draw(analog, band, 0, 2, 0, 512, 512),
                                  digitise_pack(analog[:band.stop], s.offset, s.gain_factor, s.levels,
                                                words[:band.stop])), repeats, 10)
     # lock-step at 1 kHz: the cost of each tick's step over two seconds of fields
