@@ -164,3 +164,15 @@ def test_the_camera_draws_each_mode_on_its_grid(h, v):
     # where the marker is on the screen, whatever the grid: within a screen pixel (measured: ≤ 0.94,
     # the coarse grids' centroid on a 19-pixel disc; a grid mistaken for square is tens of pixels off)
     assert abs(out[0] - row) * sv < 1.0 and abs(out[1] - col) * sh < 1.0
+
+
+@pytest.mark.parametrize("h, v", MODES)
+def test_a_saved_picture_of_each_mode_keeps_the_screens_square_aspect(h, v):
+    from rtctl.hal.framegrabber import Frame
+    from rtctl.vision.grab import _image
+    from rtctl.vision.pixels import unpack
+
+    for scan, field in (("fields", "odd"), ("frame", "frame")):
+        s = GrabberSettings(density=(h, v), scan=scan, word_bits=8)
+        picture = _image(Frame(1, 0.0, field, s, np.zeros((s.rows, s.words_per_row), np.uint8), unpack))
+        assert picture.shape[0] == picture.shape[1] >= min(h, v // 2)  # the full screen is square
