@@ -18,6 +18,7 @@ Options::
     backend = "shm"                          # or "v4l2"
     shm = "${HIL_SIM_FRAMEGRABBER:-rtctl-framegrabber}"
     [devices.settings]                       # rtctl.hal.GrabberSettings: density, window, scan, …
+    transfer_mb_s = 13.0                     # the simulated card's transfer rate (hil-sim, [sim]); unused here
     [devices.scene]                          # what a simulated camera sees (hil-sim, [sim]); unused here
 """
 from __future__ import annotations
@@ -71,7 +72,8 @@ class ShmFrameGrabber(HostFrameGrabber):
             return V4l2FrameGrabber.from_config(device, context)
         shm_name = str(expand_env(o, "shm", o.str("shm", DEFAULT_SHM)))
         settings = GrabberSettings.from_table(settings_table(o))
-        o.raw("scene", None)  # the simulator's description of what the camera sees
+        o.raw("scene", None)  # the simulator's: what the camera sees, and its card's rate
+        o.raw("transfer_mb_s", None)
         o.done()
         return cls(device.name, settings, shm_name)
 

@@ -34,13 +34,13 @@ class PictureDigitiser:
 
     def __init__(self, settings: GrabberSettings, height: int, width: int):
         s = self.settings = settings
-        d = s.density
         x, y, w, h = s.window
         grid_rows = np.arange(y, y + h)
         self.rows = {"frame": grid_rows, "odd": grid_rows[(grid_rows % 2) == 0], "even": grid_rows[grid_rows % 2 == 1]}
         # grid cell centre → nearest picture sample
-        self.rows = {k: np.minimum(((r + 0.5) * height / d).astype(np.intp), height - 1) for k, r in self.rows.items()}
-        self.cols = np.minimum(((np.arange(x, x + w) + 0.5) * width / d).astype(np.intp), width - 1)
+        self.rows = {k: np.minimum(((r + 0.5) * height / s.density_v).astype(np.intp), height - 1)
+                     for k, r in self.rows.items()}
+        self.cols = np.minimum(((np.arange(x, x + w) + 0.5) * width / s.density_h).astype(np.intp), width - 1)
         self._sampled = np.empty((s.rows, s.width), dtype=np.uint8)
         self._analog = np.empty((s.rows, s.width), dtype=np.float32)
         self._levels = np.empty((s.rows, s.width), dtype=np.uint8)
@@ -79,7 +79,8 @@ class V4l2FrameGrabber(FrameGrabber):
             raise o.error("capture_size", f"[width, height] in pixels, got {size.tolist()}")
         grabber = cls(device.name, GrabberSettings.from_table(settings_table(o)), o.str("device", "/dev/video0"),
                       o.str("pixel_format", "GREY", choices=PIXEL_FORMATS), (int(size[0]), int(size[1])))
-        o.raw("scene", None)
+        o.raw("scene", None)  # the simulator's: what the camera sees, and its card's rate
+        o.raw("transfer_mb_s", None)
         o.done()
         return grabber
 

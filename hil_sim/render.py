@@ -9,6 +9,9 @@ noise is added per pixel (a sum of four uniforms, scaled to ``noise``).
 
 Rendering works on the density grid of the grabber's settings and on any subset of the rows
 of one image (a band), so the lock-step simulator can spread a field over the ticks it takes.
+Geometry is in units of the grid's columns; when the vertical density differs from the
+horizontal one (the paper's non-square modes), a grid row sits at its screen height in those
+units, so a circle on the screen stays a circle in the picture.
 """
 from __future__ import annotations
 
@@ -52,17 +55,19 @@ class Scene:
 
 
 @njit(cache=True)
-def _render_rows(img, i_begin, i_end, i_step, row0, row_step, col0, density, bg0, bg1, noise, noise_at,
+def _render_rows(img, i_begin, i_end, i_step, row0, row_step, col0, density_v, rho, bg0, bg1, noise, noise_at,
                  seg, radius, value):
     """Rows i_begin, i_begin + i_step, … < i_end of ``img``: image row i is grid row
-    row0 + i·row_step, column j grid column col0 + j. Capsules k from (seg[k,0], seg[k,1]) to
-    (seg[k,2], seg[k,3]) in grid pixels, radius[k], video level value[k], drawn in order;
-    then ``noise[(noise_at + pixel index) mod len]`` added."""
+    g = row0 + i·row_step, at height rho·g + (rho − 1)/2 in column units (rho = horizontal /
+    vertical density: the same screen height), column j grid column col0 + j. Capsules k from
+    (seg[k,0], seg[k,1]) to (seg[k,2], seg[k,3]) in column units, radius[k], video level
+    value[k], drawn in order; then ``noise[(noise_at + pixel index) mod len]`` added."""
     cols = img.shape[1]
     mask = noise.shape[0] - 1  # (a power of two)
     for i in range(i_begin, i_end, i_step):
-        y = row0 + i * row_step
-        level = bg0 + bg1 * y / density
+        g = row0 + i * row_step
+        y = rho * g + (rho - 1.0) / 2.0
+        level = bg0 + bg1 * g / density_v
         for j in range(cols):
             img[i, j] = level
         for k in range(seg.shape[0]):
@@ -126,15 +131,16 @@ class Renderer:
         self.noise = (rng.standard_normal(NOISE_SAMPLES) * scene.noise).astype(np.float32)
         self.noise_at = 0
 
-    def freeze(self, q, density: int, field: int = 0) -> None:
-        """Project the robot at ``q`` onto the density grid (segments far to near, marker last)."""
+    def freeze(self, q, density_h: int, field: int = 0) -> None:
+        """Project the robot at ``q`` onto the grid of horizontal density ``density_h``, in
+        units of its columns (segments far to near, marker last)."""
         n, scene, cam, pts = self.model.nq, self.scene, self.scene.camera, self.points
         poses = kinematics.link_poses(self.model, q)
         pts[1:n + 1] = poses[:, :3, 3]
         pts[n + 1] = (poses[-1] @ self.tool_in_last)[:3]
         in_camera = pts @ cam.R.T + cam.t
         z = in_camera[:, 2]
-        scale = density / 512
+        scale = density_h / 512
         px = cam.focal_px * scale  # focal length in grid pixels
         with np.errstate(divide="ignore", invalid="ignore"):  # (a point behind the camera: NaN, not drawn)
             grid = (cam.focal_px * in_camera[:, :2] / np.where(z > 0, z, np.nan)[:, None] + cam.principal
@@ -150,8 +156,10 @@ class Renderer:
             self.radius[-1] = px * scene.marker_radius / z[n + 1]  # NaN or ≤ 0 behind: not drawn
         self.noise_at = (field * 7919 * 64) % NOISE_SAMPLES
 
-    def draw(self, img, rows: range, row0: int, row_step: int, col0: int, density: int) -> None:
-        """Render the image rows ``rows`` (a range) of ``img`` (float32, (rows, width))."""
+    def draw(self, img, rows: range, row0: int, row_step: int, col0: int, density_h: int, density_v: int) -> None:
+        """Render the image rows ``rows`` (a range) of ``img`` (float32, (rows, width)) on the
+        grid ``density_h`` × ``density_v`` (the horizontal one the one :meth:`freeze` used)."""
         s = self.scene
-        _render_rows(img, rows.start, rows.stop, rows.step, row0, row_step, col0, density, s.background,
+        _render_rows(img, rows.start, rows.stop, rows.step, row0, row_step, col0, density_v, density_h / density_v,
+                     s.background,
                      s.background_slope, self.noise, self.noise_at, self.seg, self.radius, self.value)

@@ -6,13 +6,13 @@ one buffer (``multiprocessing.shared_memory`` across processes, a plain array in
 laid out as (all integers little-endian int64)::
 
     0      magic "RTCTLFG1", then LAYOUT: version, n_slots, slot_stride, data_bytes, clock, field_ns
-    128    REGISTERS (host → device): gen, density, x, y, width, height, scan, offset, gain,
-           levels, word_bits, shots, trigger                    — a sequence lock: gen odd while written
+    128    REGISTERS (host → device): gen, density (horizontal), density_v, x, y, width, height, scan,
+           offset, gain, levels, word_bits, shots, trigger      — a sequence lock: gen odd while written
     256    STATUS (device → host): state, applied_gen, error, fields, heartbeat_ns
     384    WRITER (device only): published slot, written, slot_seq[n_slots]
     640    READER (host only):  claim, hold, read, dropped, last_seq
     4096   slot s at 4096 + s · slot_stride: header (seq, capture_ns, field, gen, nbytes,
-           then the 12 registers the frame was taken with), packed words from byte 256
+           then the 13 registers the frame was taken with), packed words from byte 256
 
 **Arbitration** (ownership handed over, never shared): the device writes a frame into a slot
 it has *reserved*, and publishes it when complete; the host *holds* the slot of the frame it
@@ -37,7 +37,7 @@ from rtctl.errors import ProtocolError
 from rtctl.hal.framegrabber import FIELD_PERIOD_S, MEMORY_BYTES, SCANS, GrabberSettings
 
 MAGIC = b"RTCTLFG1"
-VERSION = 1
+VERSION = 2  # 2: the vertical density register (the 16 modes)
 HEADER_BYTES = 4096
 SLOT_HEADER_BYTES = 256
 MIN_SLOTS, MAX_SLOTS = 4, 16
@@ -55,7 +55,7 @@ CAPTURE_SLACK_NS = 1_000_000  # a CLOCK_MONOTONIC stamp may lead the host's "now
 
 # word indices within each section
 L_VERSION, L_SLOTS, L_STRIDE, L_DATA, L_CLOCK, L_FIELD_NS = range(6)
-REG_NAMES = ("density", "x", "y", "width", "height", "scan", "offset", "gain", "levels", "word_bits", "shots", "trigger")
+REG_NAMES = ("density", "density_v", "x", "y", "width", "height", "scan", "offset", "gain", "levels", "word_bits", "shots", "trigger")
 R_GEN = 0
 S_STATE, S_APPLIED, S_ERROR, S_FIELDS, S_HEARTBEAT = range(5)
 W_PUBLISHED, W_WRITTEN, W_SEQ0 = 0, 1, 2
@@ -84,13 +84,14 @@ def _fence(typingctx):
 
 @njit(cache=True)
 def _reserve(writer, reader, n_slots, start):
-    """Device: a slot to write (marked BUSY) that is neither published, held nor claimed; −1 if none."""
+    """Device: a slot to write (marked BUSY) that is neither published, held nor claimed, nor
+    BUSY already (an image still in transfer); −1 if none."""
     published = writer[W_PUBLISHED]
     for k in range(2 * n_slots):
         s = (start + k) % n_slots
-        if s == published:
-            continue
         old = writer[W_SEQ0 + s]
+        if s == published or old == BUSY:
+            continue
         writer[W_SEQ0 + s] = BUSY
         _fence()
         if reader[H_CLAIM] != s and reader[H_HOLD] != s:
@@ -237,16 +238,16 @@ def _check_layout(layout, size: int) -> None:
 
 def encode(settings: GrabberSettings, trigger: int = 0) -> list[int]:
     x, y, w, h = settings.window
-    return [settings.density, x, y, w, h, SCANS.index(settings.scan), settings.offset, settings.gain,
-            settings.levels, settings.word_bits, settings.shots, trigger]
+    return [settings.density_h, settings.density_v, x, y, w, h, SCANS.index(settings.scan), settings.offset,
+            settings.gain, settings.levels, settings.word_bits, settings.shots, trigger]
 
 
 def decode(words) -> GrabberSettings:
     """Registers → settings; :class:`rtctl.errors.SettingsError` for a combination the device cannot do."""
     v = [int(x) for x in words[:len(REG_NAMES)]]
-    scan = SCANS[v[5]] if 0 <= v[5] < len(SCANS) else f"<scan code {v[5]}>"
-    return GrabberSettings(density=v[0], window=(v[1], v[2], v[3], v[4]), scan=scan, offset=v[6], gain=v[7],
-                           levels=v[8], word_bits=v[9], shots=v[10])
+    scan = SCANS[v[6]] if 0 <= v[6] < len(SCANS) else f"<scan code {v[6]}>"
+    return GrabberSettings(density=(v[0], v[1]), window=(v[2], v[3], v[4], v[5]), scan=scan, offset=v[7],
+                           gain=v[8], levels=v[9], word_bits=v[10], shots=v[11])
 
 
 class DevicePort:

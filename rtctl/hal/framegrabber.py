@@ -21,7 +21,7 @@ import numpy as np
 from rtctl.errors import SettingsError
 from rtctl.hal.lifecycle import Hardware, Status
 
-DENSITIES = (64, 128, 256, 512)  # 2^k × 2^k sampling grids, k = 6..9
+DENSITIES = (64, 128, 256, 512)  # 2^k samples along each axis, k = 6..9: 4 × 4 = the paper's 16 modes
 SCANS = ("odd", "even", "fields", "frame")  # odd or even fields (25 Hz), every field (50 Hz), interlaced frames (25 Hz)
 LEVELS = {2: 1, 4: 2, 16: 4, 256: 8}  # grey levels → bits per pixel
 WORD_BITS = (8, 16, 32)  # the parallel output's word
@@ -32,10 +32,16 @@ UNITY_GAIN = 128  # gain register value of a ×1 amplifier (factor 2^((gain − 
 
 @dataclass(frozen=True)
 class GrabberSettings:
-    """What the host programs into the interface. Coordinates are on the sampling grid
-    (``density`` × ``density`` over the full screen); ``window`` = (x, y, width, height)."""
+    """What the host programs into the interface. Coordinates are on the sampling grid over
+    the full screen; ``window`` = (x, y, width, height).
 
-    density: int = 512
+    ``density`` is the grid: one 2^k for a square grid, or ``(horizontal, vertical)`` — samples
+    along a line, lines over the frame — each 2^k with k = 6..9 chosen independently, the
+    paper's 16 modes (§2). A pair with equal halves is stored as the one number, so each mode
+    has one form. A single field holds every other line: ``(256, 512)`` gives the paper's
+    256 × 256 field, ``512`` its 256 × 512 field."""
+
+    density: int | tuple[int, int] = 512
     window: tuple[int, int, int, int] | None = None  # None: the full grid
     scan: str = "fields"
     offset: int = 0  # black level subtracted, in 1/255 of full scale (256 steps)
@@ -45,11 +51,24 @@ class GrabberSettings:
     shots: int = 0  # 0: continuous; N: N frames, then idle until triggered again
 
     def __post_init__(self):
+        d = tuple(self.density) if isinstance(self.density, list) else self.density
+        _check_density(d)
+        object.__setattr__(self, "density", d[0] if isinstance(d, tuple) and d[0] == d[1] else d)
         if self.window is None:
-            object.__setattr__(self, "window", (0, 0, self.density, self.density))
+            object.__setattr__(self, "window", (0, 0, self.density_h, self.density_v))
         self.validate()
 
     # -- derived ------------------------------------------------------------------------
+    @property
+    def density_h(self) -> int:
+        """Samples along a line: the grid's columns."""
+        return self.density if isinstance(self.density, (int, np.integer)) else self.density[0]
+
+    @property
+    def density_v(self) -> int:
+        """Lines over the full frame (both fields): the grid's rows."""
+        return self.density if isinstance(self.density, (int, np.integer)) else self.density[1]
+
     @property
     def bits(self) -> int:
         return LEVELS[self.levels]
@@ -83,9 +102,8 @@ class GrabberSettings:
     # -- validation ------------------------------------------------------------------------
     def validate(self) -> None:
         """Raise :class:`SettingsError` (naming the key) for what the device cannot do."""
-        _int("density", self.density)
-        if self.density not in DENSITIES:
-            raise SettingsError("density", f"2^k with k = 6..9 ({', '.join(map(str, DENSITIES))}), got {self.density}")
+        _check_density(self.density)
+        dh, dv = self.density_h, self.density_v
         w = self.window
         if not (isinstance(w, tuple) and len(w) == 4):
             raise SettingsError("window", f"[x, y, width, height], got {w!r}")
@@ -94,9 +112,9 @@ class GrabberSettings:
         x, y, width, height = w
         if x < 0 or y < 0 or width < 1 or height < 1:
             raise SettingsError("window", f"x, y ≥ 0 and width, height ≥ 1, got {list(w)}")
-        if x + width > self.density or y + height > self.density:
-            raise SettingsError("window", f"inside the {self.density} × {self.density} grid of density {self.density} "
-                                          f"(x + width ≤ {self.density}, y + height ≤ {self.density}), got {list(w)}")
+        if x + width > dh or y + height > dv:
+            raise SettingsError("window", f"inside the {dh} × {dv} grid of density {_density_text(self.density)} "
+                                          f"(x + width ≤ {dh}, y + height ≤ {dv}), got {list(w)}")
         if self.scan not in SCANS:
             raise SettingsError("scan", f"one of {', '.join(map(repr, SCANS))}, got {self.scan!r}")
         if self.scan != "frame" and (y % 2 or height % 2):
@@ -134,7 +152,7 @@ class GrabberSettings:
         if window is not None and not (isinstance(window, list) and len(window) == 4):
             raise t.error("window", f"[x, y, width, height], got {window!r}")
         try:
-            s = cls(density=t.int("density", 512), window=None if window is None else tuple(window),
+            s = cls(density=t.raw("density", 512), window=None if window is None else tuple(window),
                     scan=t.str("scan", "fields"), offset=t.int("offset", 0), gain=t.int("gain", UNITY_GAIN),
                     levels=t.int("levels", 256), word_bits=t.int("word_bits", 32), shots=t.int("shots", 0))
         except SettingsError as e:
@@ -146,6 +164,26 @@ class GrabberSettings:
 def _int(key: str, v) -> None:
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
         raise SettingsError(key, f"an integer, got {v!r}")
+
+
+def _check_density(d) -> None:
+    """One of the 16 modes: 2^k, or (2^k horizontal, 2^k vertical), k = 6..9."""
+    modes = f"2^k with k = 6..9 ({', '.join(map(str, DENSITIES))}), or [horizontal, vertical], each of them"
+    if isinstance(d, tuple):
+        if len(d) != 2:
+            raise SettingsError("density", f"{modes}, got {list(d)!r}")
+        for axis, v in zip(("horizontal", "vertical"), d):
+            _int(f"density.{axis}", v)
+            if v not in DENSITIES:
+                raise SettingsError(f"density.{axis}", f"{modes}, got {list(d)}")
+        return
+    _int("density", d)
+    if d not in DENSITIES:
+        raise SettingsError("density", f"{modes}, got {d}")
+
+
+def _density_text(d) -> str:
+    return str(d) if not isinstance(d, tuple) else f"[{d[0]}, {d[1]}]"
 
 
 class LoopClock:
@@ -197,7 +235,7 @@ class Frame:
         return Frame(self.seq, self.capture_time, self.field, self.settings, self.words.copy(), self._unpack)
 
     def grid_row(self, r: float) -> float:
-        """Grid row (0 … density − 1) of image row ``r``: a field holds every other line,
+        """Grid row (0 … density_v − 1) of image row ``r``: a field holds every other line,
         the odd field (TV lines 1, 3, …) the grid's rows 0, 2, …"""
         y = self.settings.window[1]
         if self.field == "frame":
@@ -207,7 +245,7 @@ class Frame:
     def __repr__(self) -> str:
         s = self.settings
         return (f"Frame(seq={self.seq}, t={self.capture_time:.4f}, {self.field} {s.rows}×{s.width} "
-                f"@{s.density}, {s.levels} levels in {s.word_bits}-bit words)")
+                f"@{_density_text(s.density)}, {s.levels} levels in {s.word_bits}-bit words)")
 
 
 class FrameGrabber(Hardware):

@@ -4,6 +4,8 @@ Image coordinates are *screen pixels*: the framegrabber's finest grid, 512 × 51
 full picture, pixel centres at integers, u to the right, v down. A grid of density d samples
 every s = 512/d screen pixels; its pixel (col, row) has its centre at screen
 (s·col + (s − 1)/2, s·row + (s − 1)/2) — :meth:`Camera.to_grid` and :meth:`Camera.to_screen`.
+A grid with a horizontal density apart from its vertical one (h, v) has s = 512/h along u and
+512/v along v.
 
 The camera frame has z along the optical axis, x along u and y along v; ``R`` and ``t`` map
 base coordinates into it (p_cam = R p + t), built from a position, a point looked at and the
@@ -88,13 +90,13 @@ class Camera:
         return True
 
     @staticmethod
-    def to_grid(uv, density: int):
-        """Screen pixels → pixels of the density grid (same shape)."""
-        s = SCREEN / density
+    def to_grid(uv, density):
+        """Screen pixels → pixels of the density grid (same shape); ``density`` d or (h, v)."""
+        s = SCREEN / np.asarray(density, dtype=float)
         return (np.asarray(uv, dtype=float) - (s - 1) / 2) / s
 
     @staticmethod
-    def to_screen(xy, density: int):
-        """Pixels of the density grid → screen pixels."""
-        s = SCREEN / density
+    def to_screen(xy, density):
+        """Pixels of the density grid → screen pixels; ``density`` d or (h, v)."""
+        s = SCREEN / np.asarray(density, dtype=float)
         return np.asarray(xy, dtype=float) * s + (s - 1) / 2

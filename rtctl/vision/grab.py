@@ -3,7 +3,8 @@
 Only the framegrabber is brought up (joint devices are built, never configured: no drive is
 touched). A simulated one (``[sim]`` or ``--sim``) is stepped in lock-step, the robot at its
 initial pose; a real one is polled on the wall clock. Grey levels are stretched to 0 … 255; a
-single field is line-doubled, as a monitor shows it, so the picture keeps its aspect.
+single field is line-doubled, as a monitor shows it, and on a grid whose horizontal and
+vertical densities differ the coarser axis's pixels are repeated, so the picture keeps its aspect.
 """
 from __future__ import annotations
 
@@ -20,7 +21,10 @@ def _image(frame) -> np.ndarray:
     levels = frame.pixels()
     if s.levels != 256:
         levels = (levels.astype(np.uint16) * 255 // (s.levels - 1)).astype(np.uint8)
-    return levels if frame.field == "frame" else np.repeat(levels, 2, axis=0)
+    row_height = (2 if frame.field != "frame" else 1) * s.density_h  # ∝ a row's height on the screen …
+    col_width = s.density_v  # … and a column's width (both × 512 / (h·v)): powers of two
+    square = min(row_height, col_width)
+    return np.repeat(np.repeat(levels, row_height // square, axis=0), col_width // square, axis=1)
 
 
 def save_png(frame, path) -> None:

@@ -120,15 +120,14 @@ class MarkerObserver(Controller):
     def measure(self, frame, guess, out) -> bool:
         """The marker near ``guess`` (screen px) in ``frame`` → ``out`` (screen px), NaN if not found."""
         s = frame.settings
-        scale = s.density / SCREEN
         x, y = s.window[0], s.window[1]
         step = 1 if frame.field == "frame" else 2
         parity = frame.field == "even"
         self._grid[:] = Camera.to_grid(guess, s.density) if np.isfinite(guess).all() else np.nan
         col, grid_row = self._grid[0] - x, self._grid[1]
         row = (grid_row - y - parity) / step  # image row of the guess
-        half_cols = max(2, int(np.ceil(self.search_px * scale)))
-        half_rows = max(2, int(np.ceil(self.search_px * scale / step)))
+        half_cols = max(2, int(np.ceil(self.search_px * s.density_h / SCREEN)))
+        half_rows = max(2, int(np.ceil(self.search_px * s.density_v / SCREEN / step)))
         out[:] = np.nan
         if not np.isfinite(row):
             return False

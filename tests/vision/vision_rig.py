@@ -18,7 +18,8 @@ CAMERA = Camera.looking_at((1.7, -1.2, 0.9), (0.35, 0.05, 0.0), 760.0)
 class Rig:
     """The PUMA 560 (or ``model``) at ``q`` (a callable of time, or fixed) filmed in lock-step."""
 
-    def __init__(self, settings, q=READY, model=None, ticks_per_field: int = 20, scene: Scene | None = None):
+    def __init__(self, settings, q=READY, model=None, ticks_per_field: int = 20, scene: Scene | None = None,
+                 transfer_mb_s: float = 13.0):
         self.model = model if model is not None else load_robot(PUMA)
         self.memory = GrabberMemory(np.zeros(buffer_bytes(), dtype=np.uint8), create=True, clock=CLOCK_LOOP)
         self.host = HostPort(self.memory)
@@ -27,7 +28,7 @@ class Rig:
         self.q = q if callable(q) else (lambda t: q)
         self.period = 0.020 / ticks_per_field
         self.camera = CameraSim(scene or Scene(CAMERA), self.model, self.memory, lambda: self.q(self.t),
-                                ticks_per_field=ticks_per_field)
+                                ticks_per_field=ticks_per_field, transfer_mb_s=transfer_mb_s)
         self.tick = 0
 
     def frames(self, seconds: float):
