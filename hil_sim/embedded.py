@@ -30,6 +30,8 @@ from rtctl.hal import JointGroup, Status
 from rtctl.hal.lifecycle import Lifecycle
 from rtctl.model import load_robot
 from rtctl.model.regressor import regressor_mass_matrix
+from hil_sim.mujoco_plant import MujocoPlant
+from hil_sim.payload import Payload, fold_payload
 from hil_sim.plant import Plant
 
 
@@ -56,6 +58,9 @@ def command_torque(impedance, q_des, qd_des, kp, kd, tau_ff, position, velocity,
         if impedance:
             tau = (q_des[k] - position[k]) * kp[k] + tau_ff[k] + (qd_des[k] - velocity[k]) * kd[k]
         tau_cmd[idx[k]] = tau
+
+
+ENGINES = ("rigid", "mujoco")  # rtctl's own rigid-body plant, or MuJoCo (an independent one: docs/mujoco.md)
 
 
 class SimPlantHub:
@@ -87,10 +92,20 @@ class SimPlantHub:
         q0 = sim.vector("initial_q", model.nq, None)
         if q0 is None:
             q0 = np.clip(np.zeros(model.nq), model.q_min, model.q_max)
-        plant = Plant(true_model, substeps=sim.int("substeps", 4, min=1, max=1000),
-                      friction_scale=sim.float("friction", 1.0, min=0.0),
-                      armature=sim.bool("armature", True), q0=q0,
-                      integrator=sim.str("integrator", "euler", choices=("euler", "rk4")))
+        payload_t = sim.table("payload", None)
+        payload = None if payload_t is None else Payload.from_table(payload_t)
+        options = dict(substeps=sim.int("substeps", 4, min=1, max=1000), friction_scale=sim.float("friction", 1.0, min=0.0),
+                       armature=sim.bool("armature", True), q0=q0,
+                       integrator=sim.str("integrator", "euler", choices=("euler", "rk4")))
+        if sim.str("engine", "rigid", choices=ENGINES) == "mujoco":
+            try:
+                plant = MujocoPlant(true_model, period=period, payload=payload, **options)
+            except ImportError as e:
+                raise sim.error("engine", f"an installed engine ({e})") from None
+            except ValueError as e:  # (MuJoCo's own compiler refusing the generated model)
+                raise sim.error("engine", f"a robot MuJoCo can simulate ({e})") from None
+        else:
+            plant = Plant(true_model if payload is None else fold_payload(true_model, payload), **options)
         try:  # a joint with no inertia and no armature cannot be simulated (its q̈ is undefined)
             np.linalg.cholesky(regressor_mass_matrix(true_model, plant.q) + np.diag(plant.armature))
         except np.linalg.LinAlgError:
