@@ -83,6 +83,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--realtime-factor", type=_FACTOR, metavar="F",
                      help="simulated devices only: 0 = as fast as possible (reproducible), 1 = wall clock")
     run.add_argument("--telemetry", metavar="PATH", help="record telemetry (msgpack) to PATH")
+    run.add_argument("--live", nargs="?", const="", metavar="[HOST:]PORT",
+                     help="serve the run live to Foxglove (ws://127.0.0.1:8765 unless given here or in [live]; "
+                          "needs the `live` extra)")
     run.add_argument("--summary", metavar="PATH", help="write the JSON run summary to PATH at exit")
     run.add_argument("--socket", metavar="PATH", help="control socket path (default from config)")
     run.add_argument("--enforce-rt", action="store_true", help="refuse to start unless every real-time knob applies")
