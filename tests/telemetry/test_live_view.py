@@ -174,3 +174,32 @@ def test_a_reader_that_fell_behind_skips_to_rows_the_loop_cannot_be_overwriting(
     rec.close()
     got = [(ns, msg["position"]) for ns, msg in states.logged]
     assert got == [(round(k * 1e-3 * 1e9), [k, -k]) for k in (0, 1, 2, 19, 20, 21, 22)]
+
+
+class AdvancingCounters:
+    """A ring's counters where the loop stores ``advance`` more rows while the reader copies."""
+
+    def __init__(self, stored: int, advance: int):
+        self.reads = iter((stored, stored + advance))
+
+    def __getitem__(self, index):
+        return next(self.reads)
+
+
+def test_rows_the_loop_started_overwriting_during_the_copy_are_dropped():
+    """8 rows in the ring (2 blocks of 4), 8 stored; while the reader copies them the loop stores
+    6 more (rows 8-13) and may be writing row 14 already: row k's slot is rewritten from the
+    moment row k + 8 is being stored, so of rows 4-7 only row 7 is intact."""
+    schema = {"t": ((), "f8"), "q": (1, "f8")}
+    dtype = row_dtype(schema)
+    memory = bytearray(Ring.size(dtype, 4, 2))
+    rows = np.frombuffer(memory, dtype=dtype, count=8, offset=64)
+    rows["t"] = np.arange(8) * 1e-3
+    rows["q"][:, 0] = np.arange(8)
+    ring = SimpleNamespace(map=memory, block_rows=4, n_blocks=2, ctl=AdvancingCounters(8, 6))
+    publisher = Publisher(ring, dtype, {"joints": ["a"]}, SimpleNamespace(Channel=FakeChannel))
+    publisher.next = 4  # rows 0-3 were read earlier: the copy takes 4-7
+    publisher.t_first = 0.0
+    publisher.poll()
+    states = next(ch for topic, ch in publisher.channels if topic.topic == "/joint_states")
+    assert [msg["position"] for _, msg in states.logged] == [[7.0]]
