@@ -11,6 +11,7 @@ runs' p99s, and the ratio with/without (the goal: within 1.10).
 from __future__ import annotations
 
 import asyncio
+import importlib.util
 import json
 import socket
 import statistics
@@ -22,6 +23,7 @@ from pathlib import Path
 
 from rtctl import logs
 from rtctl.bench.loop import SHIPPED, _configured, _run
+from rtctl.errors import RtctlError
 from rtctl.telemetry.live_view import LiveConfig
 
 PAIRS = 3
@@ -81,6 +83,9 @@ def _one(cfg, seconds: float, directory: Path, name: str, live: bool) -> dict:
 
 
 def bench_live(config=None, rate: float = 1000.0, seconds: float = 10.0) -> dict:
+    if importlib.util.find_spec("websockets") is None:
+        raise RtctlError("`rtctl bench live` connects a viewer with the websockets package (in the `test` extra): "
+                         "in the clone, .venv/bin/pip install -e '.[test]'")
     logs.configure("json", level="warning")
     cfg = _configured(config or SHIPPED, rate, True, 1.0)
     runs = []

@@ -104,10 +104,9 @@ def main(argv=None) -> int:
 
         server = foxglove.start_server(name=f"rtctl {config['meta'].get('robot', '')}".strip(),
                                        host=config["host"], port=config["port"])
-    except (ImportError, RuntimeError) as e:  # the SDK says "... (os error 98)": the errno travels
+    except RuntimeError as e:  # the SDK says "... (os error 98)": the errno travels
         code = re.search(r"os error (\d+)", str(e))
-        why = "the live view needs foxglove-sdk, the optional extra `live`" if isinstance(e, ImportError) else e
-        os.write(status, f"error {code.group(1) if code else '-'} {why}\n".encode())
+        os.write(status, f"error {code.group(1) if code else '-'} {e}\n".encode())
         return 2
     os.write(status, f"ok {server.port}\n".encode())
     os.close(status)

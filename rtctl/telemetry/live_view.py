@@ -13,6 +13,7 @@ configuration error (exit 2) found before any file is truncated or device touche
 from __future__ import annotations
 
 import errno
+import importlib.util
 import os
 import select
 import socket
@@ -71,7 +72,11 @@ def from_argument(value: str | None, configured: LiveConfig | None) -> LiveConfi
 
 def check_port(live: LiveConfig) -> None:
     """ConfigError (exit 2) unless ``live.host:live.port`` can be listened on now, bound as the
-    server binds it (SO_REUSEADDR): asked before anything is truncated or touched."""
+    server binds it (SO_REUSEADDR): asked before anything is truncated or touched. RtctlError
+    if foxglove-sdk is not installed."""
+    if importlib.util.find_spec("foxglove") is None:
+        raise RtctlError("the live view needs foxglove-sdk, the optional extra `live`: in the clone, "
+                         ".venv/bin/pip install -e '.[live]'")
     try:
         family, kind, proto, _, address = socket.getaddrinfo(live.host, live.port, type=socket.SOCK_STREAM)[0]
     except socket.gaierror as e:
@@ -132,10 +137,10 @@ class LiveView:
         if not status.startswith("ok "):
             os.close(command_w)
             _stop(proc)
-            code, _, why = status.removeprefix("error ").partition(" ")
-            if code.lstrip("-").isdigit():
+            code, _, why = status.removeprefix("error ").partition(" ") if status.startswith("error ") else ("", "", status)
+            if code.isdigit():
                 raise _bind_error(live, int(code), why)
-            raise RtctlError(f"the live view did not start: {status or 'its process exited'}")
+            raise RtctlError(f"the live view did not start: {why or 'its process exited'}")
         return cls(proc, command_w, live, int(status.split()[1]))
 
     def close(self, summary=None) -> None:
