@@ -111,6 +111,10 @@ def _values(field: Field, column: np.ndarray) -> list:
 
 def messages(topic: Topic, names: list[str], t: np.ndarray, columns: Mapping[str, np.ndarray]) -> Iterator[dict]:
     """``topic``'s message for each row of ``columns`` ({name: array of rows}, at loop times ``t``)."""
+    for f in topic.fields:
+        if len(columns[f.column]) != len(t):
+            raise ValueError(f"{topic.topic}: column {f.column!r} has {len(columns[f.column])} rows, "
+                             f"the times {len(t)}")
     keys = [f.key for f in topic.fields]
     values = [_values(f, columns[f.column]) for f in topic.fields]
     head = {"name": names} if topic.named else {}

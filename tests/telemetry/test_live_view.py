@@ -203,3 +203,11 @@ def test_rows_the_loop_started_overwriting_during_the_copy_are_dropped():
     publisher.poll()
     states = next(ch for topic, ch in publisher.channels if topic.topic == "/joint_states")
     assert [msg["position"] for _, msg in states.logged] == [[7.0]]
+
+
+def test_messages_refuse_columns_and_times_of_different_lengths():
+    from rtctl.telemetry.channels import messages, topics
+
+    (states,) = [t for t in topics({"t": (), "q": (2,)}, {}) if t.topic == "/joint_states"]
+    with pytest.raises(ValueError, match="'q' has 3 rows, the times 2"):
+        list(messages(states, ["a", "b"], np.zeros(2), {"q": np.zeros((3, 2))}))
