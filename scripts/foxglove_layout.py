@@ -6,8 +6,8 @@
 
 One layout for a live robot (`rtctl run … --live`) and a recorded run (`rtctl export … --mcap`),
 since both carry the same channels (rtctl/telemetry/channels.py). Tabs: tracking (joint
-positions and their references, torques, the event log), controller (computed torque's q̈
-command, C* Slotine–Li's s and first estimates), timing (the tick's phases) and marker (the
+positions and their references, torques, the event log), controller (which are active — the
+switch job has two —, computed torque's q̈ command, C* Slotine–Li's s and first estimates), timing (the tick's phases) and marker (the
 vision job's pixels). A panel whose topic a job does not publish stays empty. Every series is
 plotted against the message's time (its log time in a file, its time in a live frame): the
 loop's time since the start of the run. The file is Foxglove's layout export format (Layout →
@@ -48,6 +48,8 @@ def layout() -> dict:
         "Log!events": {"searchTerms": [], "minLogLevel": 1, "topicToRender": "/events"},
         "Plot!qdd": plot("computed torque: q̈ command (rad/s²)", per_joint("/controller/qdd_cmd", "data")),
         "Plot!s": plot("C* Slotine–Li: s = q̇ − q̇_r (rad/s)", per_joint("/controller/s", "data")),
+        "Plot!active": plot("controllers active (1: on; in the configuration's order)",
+                            [(f"/controller/controllers_active.data[{k}]", f"controller {k + 1}") for k in range(2)]),
         "Plot!estimates": plot("C* Slotine–Li: first estimates π̂", [(f"/controller/params_hat.data[{k}]", f"π̂[{k}]")
                                                                      for k in range(10)]),
         "Plot!timing": plot("tick phases (µs)", [(f"/timing.{p}_us", p) for p in PHASES]),
@@ -60,7 +62,8 @@ def layout() -> dict:
     }
     panels["Tab!rtctl"] = {"activeTabIdx": 0, "tabs": [
         {"title": "Tracking", "layout": split(split("Plot!positions", "Plot!torques"), "Log!events", "column", 75)},
-        {"title": "Controller", "layout": split("Plot!qdd", split("Plot!s", "Plot!estimates"), "column", 33)},
+        {"title": "Controller", "layout": split(split("Plot!active", "Plot!qdd", "column", 30),
+                                                split("Plot!s", "Plot!estimates"), "column", 45)},
         {"title": "Timing", "layout": "Plot!timing"},
         {"title": "Marker", "layout": split("Plot!marker", "Plot!marker_error")},
     ]}

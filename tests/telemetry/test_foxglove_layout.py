@@ -21,19 +21,22 @@ from rtctl.timing import DAEMON_PHASES
 
 ROOT = Path(__file__).resolve().parents[2]
 LAYOUT = ROOT / "configs" / "foxglove" / "puma_layout.json"
-JOBS = ("puma560_sim", "puma560_cstar_sim", "puma560_vision_sim")
+JOBS = ("puma560_sim", "puma560_cstar_sim", "puma560_vision_sim", "puma560_switch_sim")
 PATH = re.compile(r"^(/[\w/]+)\.(\w+)(?:\[(\d+)\])?$")
 
 
 def recorded_shapes(job: str) -> tuple[dict, dict]:
     """The telemetry columns a run of ``job`` records ({name: per-row shape}) and its metadata,
-    as the daemon lays them out: the state columns, then each controller's internals."""
+    as the daemon lays them out: the state columns, each controller's internals, which are active
+    (the tunable parameters' columns are not channels: their changes are events)."""
     cfg = load_config(ROOT / "configs" / f"{job}.toml", sim=True)
     n = cfg.model.nq
     shapes = {"t": (), "q": (n,), "qd": (n,), "q_des": (n,), "qd_des": (n,), "tau": (n,),
               "phase_ns": (len(DAEMON_PHASES),)}
-    for c in build(cfg).controllers:
+    configured = build(cfg).configured
+    for c in configured:
         shapes.update({name: arr.shape for name, arr in c.internals.items()})
+    shapes["controllers_active"] = (len(configured),)
     return shapes, {"phases": list(DAEMON_PHASES), "joints": list(cfg.model.joint_names)}
 
 

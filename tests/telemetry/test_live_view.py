@@ -76,7 +76,8 @@ def test_a_foxglove_client_receives_the_rows_the_telemetry_file_records(write_co
     assert code == 0, err
     assert "ws://127.0.0.1:" + str(port) in out
 
-    assert {"/joint_states", "/joint_commands", "/controller/qdd_cmd", "/timing", "/events"} == set(advertised)
+    assert {"/joint_states", "/joint_commands", "/controller/qdd_cmd", "/controller/controllers_active", "/timing",
+            "/events"} == set(advertised)  # (the MCAP export's; the tunable gains are not channels)
     schema = json.loads(advertised["/joint_states"]["schema"])
     assert advertised["/joint_states"]["schemaName"] == schema["title"] == "rtctl.JointState"
     tel = read(telemetry)
