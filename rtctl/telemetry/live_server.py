@@ -52,7 +52,8 @@ class Publisher:
             return
         wanted = [(topic, channel) for topic, channel in self.channels if channel.has_sinks()]
         if not wanted and self.t_first is not None:
-            self.next = stored  # nobody looks: nothing to build
+            self.next = stored  # nobody looks: nothing to build, only the time for the end events
+            self.t_last = float(self.rows["t"][(stored - 1) % self.capacity])
             return
         first = max(self.next, stored - self.capacity + self.ring.block_rows)  # behind: skip to recent rows
         rows = self.rows[np.arange(first, stored) % self.capacity]  # (a copy)

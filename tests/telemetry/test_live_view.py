@@ -212,3 +212,21 @@ def test_messages_refuse_columns_and_times_of_different_lengths():
     (states,) = [t for t in topics({"t": (), "q": (2,)}, {}) if t.topic == "/joint_states"]
     with pytest.raises(ValueError, match="'q' has 3 rows, the times 2"):
         list(messages(states, ["a", "b"], np.zeros(2), {"q": np.zeros((3, 2))}))
+
+
+def test_the_end_events_carry_the_last_rows_time_when_nobody_watched_the_rows(tmp_path):
+    schema = {"t": ((), "f8"), "q": (1, "f8")}
+    rec = Recorder(tmp_path / "run.msgpack", schema, {"joints": ["a"]}, block_rows=4, n_blocks=2,
+                   wait_when_full=True)
+    dtype = row_dtype(rec.schema)
+    publisher = Publisher(Ring(rec.ring_fd, dtype, 4, 2), dtype, rec.meta, SimpleNamespace(Channel=FakeChannel))
+    for topic, channel in publisher.channels:
+        channel.has_sinks = lambda: False  # only the event log is watched
+    for k in range(6):
+        rec.row["t"][()] = k * 1e-3
+        rec.commit()
+        publisher.poll()
+    rec.close()
+    publisher.finish({"exit_code": 0, "stop_reason": "duration reached"})
+    logged = [(ns, msg["message"].split()[0]) for ns, msg in publisher.log.logged]
+    assert logged == [(0, "started"), (5_000_000, "ended")]
