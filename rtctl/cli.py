@@ -83,6 +83,9 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--realtime-factor", type=_FACTOR, metavar="F",
                      help="simulated devices only: 0 = as fast as possible (reproducible), 1 = wall clock")
     run.add_argument("--telemetry", metavar="PATH", help="record telemetry (msgpack) to PATH")
+    run.add_argument("--live", nargs="?", const="", metavar="[HOST:]PORT",
+                     help="serve the run live to Foxglove (ws://127.0.0.1:8765 unless given here or in [live]; "
+                          "needs the `live` extra)")
     run.add_argument("--summary", metavar="PATH", help="write the JSON run summary to PATH at exit")
     run.add_argument("--socket", metavar="PATH", help="control socket path (default from config)")
     run.add_argument("--enforce-rt", action="store_true", help="refuse to start unless every real-time knob applies")
@@ -208,11 +211,12 @@ def _parser() -> argparse.ArgumentParser:
     grab.add_argument("--timeout", type=float, default=2.0, metavar="S", help="give up after S seconds (default 2)")
 
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
-    bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "can", "control", "telemetry",
+    bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "live", "can", "control", "telemetry",
                                         "control-socket", "safety", "trajectory", "leg", "soak", "guard", "grabber",
                                         "switching"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
-                            "PUMA 560; loop-timing: an empty loop (like cyclictest); can: codec and transports; "
+                            "PUMA 560; loop-timing: an empty loop (like cyclictest); live: the loop with and without "
+                            "the Foxglove live view and one viewer, side by side; can: codec and transports; "
                             "control: the Slotine–Li laws and arma_gmv; telemetry, control-socket, safety, trajectory: their per-tick costs; "
                             "leg: the leg automaton's gates + circuit per tick and the leg board codec; "
                             "soak: the full stack over HIL (socketcand, MIT and CiA 402) for --minutes: RSS, GC, "
@@ -223,9 +227,10 @@ def _parser() -> argparse.ArgumentParser:
                             "switching: the loop untouched, then with 10 controller switches or gain sets per second")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
-    bench.add_argument("--config", default=None, help="run configuration for `bench loop` (default: the shipped one)")
+    bench.add_argument("--config", default=None, help="run configuration for `bench loop`/`live` (default: the shipped one)")
     bench.add_argument("--rate", type=_RATE, default=1000.0, help="loop rate for `bench loop` (Hz)")
-    bench.add_argument("--seconds", type=_SECONDS, default=10.0, help="duration for `bench loop` and `bench switching` (s)")
+    bench.add_argument("--seconds", type=_SECONDS, default=10.0,
+                       help="duration for `bench loop` and `bench switching` (s; `live`: per run)")
     bench.add_argument("--minutes", type=_SECONDS, default=10.0,
                        help="duration for `bench soak` (default 10; --config: another HIL configuration)")
 

@@ -125,6 +125,10 @@ def bench(args) -> int:
         from rtctl.bench.loop import bench_loop as run, format_table
 
         result = run(args.config, rate=args.rate, seconds=args.seconds)
+    elif args.what == "live":
+        from rtctl.bench.live import bench_live as run, format_table
+
+        result = run(args.config, rate=args.rate, seconds=args.seconds)
     elif args.what == "telemetry":
         from rtctl.bench.telemetry import bench_telemetry as run, format_table
 

@@ -20,6 +20,7 @@ Layout of a run configuration (paths are relative to the file)::
     [safety]      fallback, damping, stale_ticks, position_margin, estop_off_delay, following_error …
     [guard]       interference zones and the guard's settings (rtctl.guard.config)
     [telemetry]   path, batch_rows, on_failure ("stop": a writer failure is a safe stop; "continue")
+    [live]        host (default 127.0.0.1), port (default 8765): serve the run to Foxglove live
     [control]     socket
 """
 from __future__ import annotations
@@ -36,6 +37,7 @@ from rtctl.control_socket.client import default_socket_path
 from rtctl.errors import ConfigError, RtctlError
 from rtctl.guard.config import GuardConfig, check_waypoints, load_guard
 from rtctl.model import Model, load_robot
+from rtctl.telemetry.live_view import LiveConfig, from_table as live_from_table
 from rtctl.timing.rt import MAX_TIMER_SLACK_NS, RtSettings
 from rtctl.tomltable import Table, load_toml
 from rtctl.trajectory.planning import MAX_DURATION_S
@@ -121,6 +123,7 @@ class Config:
     socket_path: Path
     telemetry_on_failure: str = "stop"  # writer failed: "stop" (safe stop, exit 3) or "continue" without telemetry
     guard: GuardConfig | None = None  # interference zones (robot file and [guard]), if any
+    live: LiveConfig | None = None  # [live]: the Foxglove live view (off unless configured or --live)
 
 
 def load_config(path, *, sim: bool = False) -> Config:
@@ -169,11 +172,12 @@ def load_config(path, *, sim: bool = False) -> Config:
     if control is not None:
         socket_path = Path(control.str("socket", str(socket_path)))
         control.done()
+    live = live_from_table(t.table("live", None))
     if loop.realtime_factor != 1.0 and sim_t is None:
         raise t.error("loop.realtime_factor", "1.0 unless the devices are simulated ([sim] or --sim)")
     t.done()
     return Config(path, robot_file, model, loop, devices, controllers, trajectory, safety, sim_t,
-                  telemetry_path, batch, socket_path, on_failure, guard)
+                  telemetry_path, batch, socket_path, on_failure, guard, live)
 
 
 def _loop(t: Table | None) -> LoopConfig:

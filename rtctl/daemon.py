@@ -23,6 +23,7 @@ Signals only set a flag; the loop acts on it at the next tick boundary.
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
 from dataclasses import replace
 from pathlib import Path
@@ -45,6 +46,7 @@ from rtctl.live import LiveChanges
 from rtctl.operator import Operator
 from rtctl.runtime import build
 from rtctl.safety import SafetyStage
+from rtctl.telemetry import live_view
 from rtctl.tick import Tick
 from rtctl.timing import DAEMON_PHASES, SERVE, KnobStatus, MonotonicClock, Ticker, apply_rt, rt_budget
 from rtctl.trajectory import JointLimits, hold, through_waypoints
@@ -78,6 +80,7 @@ def prepare(args) -> "Daemon":
     cfg = load_config(args.config, sim=args.sim)
     if getattr(args, "realtime_factor", None) is not None:
         cfg = _with_realtime_factor(cfg, args.realtime_factor)
+    cfg = replace(cfg, live=live_view.from_argument(getattr(args, "live", None), cfg.live))
     return Daemon(cfg, build(cfg), args)
 
 
@@ -113,6 +116,7 @@ class Daemon:
         self.ticker = Ticker(round(1e9 * cfg.loop.period), realtime_factor=cfg.loop.realtime_factor,
                              max_consecutive_overruns=cfg.loop.overrun_limit, clock=clock, phases=DAEMON_PHASES)
         self.recorder = None
+        self.live_view = None  # the Foxglove live view's process (rtctl.telemetry.live_view)
         self.telemetry_failure: str | None = None
         self.tick = Tick(runtime, self.ticker, self.safety)
         self.moves = Moves(cfg, self.limits, cfg.loop.period)  # `move`: planned in its own process
@@ -136,8 +140,13 @@ class Daemon:
             # file gives up here), then truncate: nothing another run holds is overwritten
             server = ControlServer(self.args.socket or self.cfg.socket_path, self.operator.handle, n_joints=self.model.nq,
                                    budget_s=SERVE_BUDGET * self.cfg.loop.period)
-            if path:
-                self.recorder = self._open_recorder(Path(path))
+            if self.cfg.live is not None:  # (exit 2 before the telemetry file is truncated)
+                live_view.check_port(self.cfg.live)
+            if path or self.cfg.live is not None:  # the live view reads the recorder's ring
+                self.recorder = self._open_recorder(Path(path or os.devnull))
+            if self.cfg.live is not None:
+                self.live_view = live_view.LiveView.start(self.recorder, self.cfg.live)
+                log.info("live view", url=self.live_view.url)
             compiling = Precompile(self._warm_up_groups()).start()
             self.moves.start()  # the move planner: a process of its own, like the compile workers
             if compiling.loaded == len(compiling.groups):  # nothing to compile: it loads its kernels now
@@ -418,6 +427,8 @@ class Daemon:
                 if self.telemetry_failure is None:  # (else reported when it happened)
                     log.error("telemetry failed", reason=str(e))
                 summary["telemetry"]["error"] = str(e)
+        if self.live_view is not None:
+            self.live_view.close(summary)
         self.summary = summary
         if self.args.summary:
             try:

@@ -29,13 +29,9 @@ every committed row from shared memory; the footer then says ``clean: False``.
 from __future__ import annotations
 
 import fcntl
-import json
 import os
 import stat
-import signal
-import struct
 import subprocess
-import sys
 import time
 
 import msgpack
@@ -44,6 +40,7 @@ import numpy as np
 from rtctl.errors import ResourceBusyError, TelemetryError
 from rtctl.telemetry.ring import DROPPED, FAILED, RELEASED, STORED, Ring
 from rtctl.telemetry.schema import FORMAT, VERSION, normalise_schema, row_dtype, schema_to_wire
+from rtctl.telemetry.ring_reader import close_message, spawn_ring_reader
 
 _WAKE = b"F"
 _WAIT_POLL_S = 200e-6
@@ -91,6 +88,7 @@ class Recorder:
         self.schema = normalise_schema(schema)
         self.block_rows, self.n_blocks = block_rows, n_blocks
         self.wait_when_full = wait_when_full
+        self.meta = meta or {}
         self._closed = False
         self._bound: list[tuple[memoryview, memoryview]] = []
         dtype = row_dtype(self.schema)
@@ -103,7 +101,7 @@ class Recorder:
         self._block_bytes = dtype.itemsize * block_rows
         header = {"type": "header", "format": FORMAT, "version": VERSION,
                   "schema": schema_to_wire(self.schema), "block_rows": block_rows,
-                  "meta": meta or {}, "start_time": time.time()}
+                  "meta": self.meta, "start_time": time.time()}
         try:
             header_bytes = msgpack.packb(header)
         except (TypeError, ValueError) as exc:
@@ -130,22 +128,20 @@ class Recorder:
         read_fd, write_fd = os.pipe()
         config = {"schema": schema_to_wire(self.schema), "block_rows": self.block_rows,
                   "n_blocks": self.n_blocks, "ring_fd": self._ring.fd, "file_fd": file_fd, "pipe_fd": read_fd}
-        # The writer must ignore SIGTERM/SIGINT from birth: a signal to the process group
-        # while it still imports would kill it. A blocked mask survives exec (a handler does
-        # not); the writer then ignores both and unblocks. The loop's own copies of those
-        # signals stay pending during Popen, they are not lost.
-        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
         try:
-            proc = subprocess.Popen([sys.executable, "-m", "rtctl.telemetry.writer", json.dumps(config)],
-                                    pass_fds=(self._ring.fd, file_fd, read_fd), stdin=subprocess.DEVNULL)
+            proc = spawn_ring_reader("rtctl.telemetry.writer", config, (self._ring.fd, file_fd, read_fd))
         except OSError as exc:
             os.close(write_fd)
             raise TelemetryError(f"cannot start the telemetry writer process: {exc}") from exc
         finally:
-            signal.pthread_sigmask(signal.SIG_SETMASK, mask)
             os.close(read_fd)
         os.set_blocking(write_fd, False)  # a wake-up must never block the tick
         return proc, write_fd
+
+    @property
+    def ring_fd(self) -> int:
+        """The shared ring's fd, for another process that reads the rows (the live view)."""
+        return self._ring.fd
 
     # ---- hot path -------------------------------------------------------------------
 
@@ -234,12 +230,7 @@ class Recorder:
         if self._closed:
             return
         self._closed = True
-        message = b"C"
-        try:
-            payload = msgpack.packb(summary)
-        except (TypeError, ValueError) as exc:  # the rows matter more than the summary
-            payload = msgpack.packb({"error": f"summary not msgpack-serialisable: {exc}"})
-        message += struct.pack(">I", len(payload)) + payload
+        message = close_message(summary)
         os.set_blocking(self._pipe_fd, True)
         try:
             os.write(self._pipe_fd, message)

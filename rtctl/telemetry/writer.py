@@ -22,14 +22,13 @@ from __future__ import annotations
 import errno
 import json
 import os
-import signal
-import struct
 import sys
 import time
 
 import msgpack
 
 from rtctl.telemetry.ring import DROPPED, FAILED, RELEASED, STORED, Ring
+from rtctl.telemetry.ring_reader import detach_from_loop, read_summary
 from rtctl.telemetry.schema import row_dtype, schema_from_wire
 
 
@@ -83,37 +82,15 @@ class Writer:
             self.flush_full_blocks()
             start = pending.find(b"C")
             if start >= 0:
-                summary = self._read_summary(pending[start + 1:])
+                summary = read_summary(self.pipe_fd, pending[start + 1:])
                 self.finish(summary, clean=True)
                 return
             pending = b""
 
-    def _read_summary(self, data: bytes):
-        while len(data) < 4 or len(data) < 4 + struct.unpack(">I", data[:4])[0]:
-            chunk = os.read(self.pipe_fd, 65536)
-            if not chunk:
-                return None  # closed mid-message: the rows matter more than the summary
-            data += chunk
-        (length,) = struct.unpack(">I", data[:4])
-        return msgpack.unpackb(data[4:4 + length])
-
-
-def _detach_from_loop() -> None:
-    # Both arrive blocked (see Recorder._start_writer); ignoring discards any pending one.
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
-    if hasattr(os, "sched_setscheduler"):
-        try:  # SCHED_FIFO is inherited unless reset; the writer must never preempt the loop
-            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-        except OSError:
-            pass
-    os.nice(10)
-
 
 def main(argv=None) -> int:
     config = json.loads((argv or sys.argv[1:])[0])
-    _detach_from_loop()
+    detach_from_loop()
     schema = schema_from_wire(config["schema"])
     ring = Ring(config["ring_fd"], row_dtype(schema), config["block_rows"], config["n_blocks"])
     try:
