@@ -30,7 +30,7 @@ projection = true
 motor_model = true
 
 [trajectory]""").replace("waypoints = [[0, 45, -180, 0, 45, 0], [30, 30, -160, 20, 60, 30], [0, 45, -180, 0, 45, 0]]",
-                         "waypoints = [" + ", ".join(["[0, 45, -180, 0, 45, 0], [30, 30, -160, 20, 60, 30]"] * 6)
+                         "waypoints = [" + ", ".join(["[0, 45, -180, 0, 45, 0], [30, 30, -160, 20, 60, 30]"] * 12)
                          + ", [0, 45, -180, 0, 45, 0]]")
 
 
@@ -54,13 +54,15 @@ def switch_ticks(tel) -> np.ndarray:
 
 def test_switching_ct_and_slotine_li_ten_times_is_bumpless_tracks_and_is_recorded(write_config, daemon, tmp_path):
     telemetry = tmp_path / "run.msgpack"
-    d = daemon(write_config(SWITCHABLE), "--telemetry", telemetry, "--duration", 12)
+    d = daemon(write_config(SWITCHABLE), "--telemetry", telemetry, "--duration", 60)
     d.wait_ready()
     replies = []
-    for i in range(20):  # ct → adaptive → ct …, every 0.4 s of the run's time
+    for i in range(20):  # ct → adaptive → ct …, every 0.4 s of the run's time (later if the machine stalls)
         wait_until(d.socket, 1.0 + 0.4 * i)
         to = "adaptive" if i % 2 == 0 else "ct"
         replies.append(ask(d.socket, cmd="switch", activate=[to], estimates="keep"))
+    wait_until(d.socket, replies[-1]["t"] + 0.5)
+    ask(d.socket, cmd="stop")
     code, _, err = d.finish()
     assert code == 0, err
     assert all(r["ok"] for r in replies), replies
@@ -95,10 +97,10 @@ def test_a_gain_set_mid_run_changes_the_response_as_the_new_gain_predicts(write_
     text = BASE.replace("kd = 40.0", "kd = 40.0\nmotor_model = false").replace(
         "substeps = 4", "substeps = 4\nfriction = 1.0\narmature = true").replace(
         "waypoints = [[0, 45, -180, 0, 45, 0], [30, 30, -160, 20, 60, 30], [0, 45, -180, 0, 45, 0]]",
-        "waypoints = [" + ", ".join(["[0, 45, -180, 0, 45, 0], [30, 30, -160, 20, 60, 30]"] * 4)
-        + ", [0, 45, -180, 0, 45, 0]]\ndurations = [0.5" + ", 1.0" * 8 + "]")  # A → B → A … from 0.5 s
+        "waypoints = [" + ", ".join(["[0, 45, -180, 0, 45, 0], [30, 30, -160, 20, 60, 30]"] * 6)
+        + ", [0, 45, -180, 0, 45, 0]]\ndurations = [0.5" + ", 1.0" * 12 + "]")  # A → B → A … from 0.5 s, period 2 s
     telemetry = tmp_path / "run.msgpack"
-    d = daemon(write_config(text), "--telemetry", telemetry, "--duration", 8.0)
+    d = daemon(write_config(text), "--telemetry", telemetry, "--duration", 12.5)
     d.wait_ready()
     wait_until(d.socket, 3.7)  # (as fast as possible: the raw socket, not the CLI's start-up time)
     kp, kd = ask(d.socket, cmd="set", key="ct.kp", value=1600), ask(d.socket, cmd="set", key="ct.kd", value=80.0)
@@ -108,10 +110,14 @@ def test_a_gain_set_mid_run_changes_the_response_as_the_new_gain_predicts(write_
     tel = read(telemetry)
     t, e = tel["t"], tel["q"] - tel["q_des"]
     changed = t[np.flatnonzero(tel["ct.kd"][:, 0] == 80.0)[0]]
-    assert changed == pytest.approx(kd["t"], abs=2e-3) and 3.7 <= changed < 4.0  # where asked, recorded
+    assert changed == pytest.approx(kd["t"], abs=2e-3) and changed >= 3.7  # where it was asked, recorded
     assert set(tel["ct.kp"][t < 3.7, 0]) == {400.0} and set(tel["ct.kp"][t > changed, 0]) == {1600.0}
-    before = np.sqrt(np.mean(e[(t >= 1.5) & (t < 3.5)] ** 2, axis=0))  # B → A → B, and the same
-    after = np.sqrt(np.mean(e[(t >= 5.5) & (t < 7.5)] ** 2, axis=0))   # two segments two periods later
+    # B → A → B before the set, and the same two segments a whole number of periods later, once the
+    # new gains' transient is over (when the set lands depends on the machine: the run is as fast as possible)
+    start = 1.5 + 2.0 * np.ceil((changed + 0.5 - 1.5) / 2.0)
+    assert start + 2.0 <= 12.5, f"the set landed too late ({changed:.2f} s) to compare a period after it"
+    before = np.sqrt(np.mean(e[(t >= 1.5) & (t < 3.5)] ** 2, axis=0))
+    after = np.sqrt(np.mean(e[(t >= start) & (t < start + 2.0)] ** 2, axis=0))
     ratio = after[:3] / before[:3]
     assert np.all((ratio > 0.15) & (ratio < 0.4)), ratio  # ≈ K_P,old / K_P,new = 0.25
 
