@@ -229,15 +229,16 @@ LEG_WATCHDOG_MS = 20.0  # the leg board's command watchdog is 2.5 × this, unles
 
 
 def serve_leg(args, path: Path, device) -> int:
-    from hil_sim.leg_plant import LegParams, LegPlant
+    from hil_sim.leg import leg_plant
     from hil_sim.leg_serial import LegBoardServer
 
     t = load_toml(path)
     loop = t.table("loop", None)
     period = 1.0 / (loop.float("rate_hz", 1000.0, positive=True) if loop is not None else 1000.0)
     sim = t.table("sim", None)
-    leg = sim.table("leg", Table({}, path, "sim.leg")) if sim is not None else Table({}, path, "sim.leg")
-    plant = LegPlant(LegParams.from_table(leg))
+    if sim is None:
+        sim = Table({}, path, "sim")
+    plant = leg_plant(sim, sim.table("leg", Table({}, path, "sim.leg")), period)
     watchdog_ms = LEG_WATCHDOG_MS if args.drive_timeout_ms is None else args.drive_timeout_ms
     server = LegBoardServer(plant, period, args.realtime_factor, watchdog_ms / 1e3 * 2.5, emit)
     server.faults = [ScriptedFault.parse(s) for s in args.fault]

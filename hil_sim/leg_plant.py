@@ -73,7 +73,7 @@ class LegParams:
         for f in fields(cls):
             if not t.has(f.name):
                 continue
-            if f.name == "seed":
+            if isinstance(f.default, int):  # seed, and a subclass's counts
                 kw[f.name] = t.int(f.name, min=0)
             elif isinstance(f.default, tuple):
                 kw[f.name] = tuple(t.vector(f.name, len(f.default)).tolist())
