@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drivers.protocols.leg_board import DECREASE, HOLD, INCREASE, RELEASE
+from drivers.protocols.leg_board import DECREASE, INCREASE, RELEASE
 from hil_sim.leg_plant import D, LegParams
 from hil_sim.mujoco_plant import import_mujoco
 
@@ -46,18 +46,23 @@ class MujocoLegParams(LegParams):
     masses, the servos and the sound leg's share. The scripted plant's stand-ins for contact
     physics (:data:`SCRIPTED_ONLY`) are refused: here the physics does what they described."""
 
-    contact_depth: float = 0.08  # m the pelvis may be pushed above its pattern by the full body weight
+    # changed from the scripted plant (docs/mujoco.md says why)
+    hip_height: tuple = (0.84, 0.86, 0.92, 0.87, 0.82, 0.95, 0.96, 0.93, 0.86)  # m
+    knee_flex_rate: float = 140.0
+    knee_rest: float = 20.0
+    ankle_rest: float = 12.0
     body_mass: float = 70.0  # kg, pelvis and trunk
     thigh_mass: float = 7.0
     shank_mass: float = 2.5
     foot_mass: float = 1.0
-    hip_stiffness: float = 4000.0  # N·m/rad, the wearer's hip servo
-    hip_damping: float = 80.0
+    hip_stiffness: float = 20000.0  # N·m/rad, the wearer's hip servo
+    hip_damping: float = 260.0
     lock_stiffness: float = 3000.0  # N·m/rad, hold and the driven moves
     lock_damping: float = 30.0
-    release_stiffness: float = 15.0  # N·m/rad, the released joint's return spring
-    release_damping: float = 3.0
-    ankle_brake: float = 30.0  # N·m, the most a held ankle resists (beyond it the ground back-drives it)
+    knee_release_stiffness: float = 60.0  # N·m/rad, the released knee's return spring
+    knee_release_damping: float = 8.0  # N·m·s/rad, its swing damper
+    ankle_release_stiffness: float = 400.0  # N·m/rad, the released ankle: the foot's keel
+    ankle_release_damping: float = 5.0
     pelvis_damping_ratio: float = 0.7
     support_phase: tuple = (0.00, 0.10, 0.45, 0.62, 0.94)
     support: tuple = (0.6, 0.0, 0.0, 1.0, 1.0)  # the sound leg's share of the body
@@ -91,7 +96,8 @@ def leg_mjcf(p: MujocoLegParams, timestep: float) -> str:
     """MJCF of the planar leg: x forward, z up, the joints about y (hip flexion about −y so that each
     angle is positive the way the board reports it)."""
     r = FOOT_RADIUS
-    deg = lambda rng: f'range="{rng[0] * D!r} {rng[1] * D!r}"'  # noqa: E731
+    # a joint stop stiffer than MuJoCo's default (time constant 20 ms): 4 steps
+    deg = lambda rng: f'range="{rng[0] * D!r} {rng[1] * D!r}" solreflimit="{4 * timestep!r} 1"'  # noqa: E731
     foot_i = p.foot_mass * (p.heel + p.toe) ** 2 / 12.0
     return f"""<mujoco model="leg">
   <compiler angle="radian"/>
@@ -123,7 +129,7 @@ def leg_mjcf(p: MujocoLegParams, timestep: float) -> str:
   <actuator>
     <position name="hip" joint="hip" kp="{p.hip_stiffness!r}" kv="{p.hip_damping!r}"/>
     <position name="knee" joint="knee" kp="1" kv="0"/>
-    <position name="ankle" joint="ankle" kp="1" kv="0" forcelimited="true" forcerange="-1e9 1e9"/>
+    <position name="ankle" joint="ankle" kp="1" kv="0"/>
   </actuator>
   <sensor>
     <touch name="toe" site="toe"/>
@@ -161,11 +167,12 @@ class MujocoLegPlant:
         self._pelvis_k = self.weight / p.contact_depth
         self._pelvis_c = 2.0 * p.pelvis_damping_ratio * math.sqrt(self._pelvis_k * float(m.body_mass.sum()))
         self._gain, self._bias, self._ctrl = m.actuator_gainprm, m.actuator_biasprm, d.ctrl
-        self._force_range = m.actuator_forcerange
         self._modes = [-1, -1]  # the knee's and ankle's codes in force (−1: none yet)
         self._targets = np.zeros(2)
         self._rates = ((p.knee_extend_rate * D, p.knee_flex_rate * D), (p.ankle_rate * D, p.ankle_rate * D))
         self._rests = (p.knee_rest * D, p.ankle_rest * D)
+        self._release = ((p.knee_release_stiffness, p.knee_release_damping),
+                         (p.ankle_release_stiffness, p.ankle_release_damping))
         self._ranges = ((p.knee_range[0] * D, p.knee_range[1] * D), (p.ankle_range[0] * D, p.ankle_range[1] * D))
         self._knots = self._periodic(p.hip_height_phase, p.hip_height)
         self._share_knots = self._periodic(p.support_phase, p.support)
@@ -222,14 +229,13 @@ class MujocoLegPlant:
                 self._modes[j] = code
                 self._targets[j] = self.q[j + 1]
             if code == RELEASE:
-                self._servo(j, p.release_stiffness, p.release_damping, self._rests[j])
+                self._servo(j, *self._release[j], self._rests[j])
                 continue
             if code == INCREASE:
                 self._targets[j] = min(self._targets[j] + self._rates[j][1] * dt, self._ranges[j][1])
             elif code == DECREASE:
                 self._targets[j] = max(self._targets[j] - self._rates[j][0] * dt, self._ranges[j][0])
             self._servo(j, p.lock_stiffness, p.lock_damping, self._targets[j])
-        self._force_range[2] = (-p.ankle_brake, p.ankle_brake) if self._modes[1] == HOLD else (-1e9, 1e9)
         t = self.time + dt  # the wearer's pattern at the end of the period
         self._ctrl[0] = self.hip_angle(t)
         w = self.support(t)
