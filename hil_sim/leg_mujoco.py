@@ -79,8 +79,11 @@ class MujocoLegParams(LegParams):
             raise t.error("support_phase", "increasing phases in [0, 1)")
         if not all(0.0 <= s <= 1.0 for s in p.support):
             raise t.error("support", "shares of the body weight in [0, 1]")
-        if p.substeps < 1 or min(p.body_mass, p.thigh_mass, p.shank_mass, p.foot_mass) <= 0:
-            raise t.error("substeps", "at least 1 MuJoCo step per period, and positive masses")
+        if p.substeps < 1:
+            raise t.error("substeps", "at least 1 MuJoCo step per period")
+        for name in ("body_mass", "thigh_mass", "shank_mass", "foot_mass"):
+            if getattr(p, name) <= 0:
+                raise t.error(name, "a positive mass (kg)")
         return p
 
 

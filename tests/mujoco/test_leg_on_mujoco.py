@@ -2,6 +2,8 @@
 contact forces, and the leg automaton walks on them (configs/leg_mujoco.toml)."""
 from __future__ import annotations
 
+import os
+import subprocess
 import sys
 from pathlib import Path
 
@@ -58,12 +60,45 @@ def test_the_heel_load_rises_at_heel_strike_from_the_contact_not_a_script():
     assert struck is not None and peak > 0.2, (struck, peak)
 
 
-def test_a_scripted_plants_stand_in_for_physics_is_refused():
-    from rtctl.tomltable import Table
-    from rtctl.errors import RtctlError
+def leg_job(tmp_path, *change) -> Path:
+    """configs/leg_mujoco.toml with its relative paths made absolute, ``change`` = (old, new) applied."""
+    text = (ROOT / "configs" / "leg_mujoco.toml").read_text()
+    text = text.replace('description = "robots/', f'description = "{ROOT}/configs/robots/')
+    text = text.replace('table = "leg/', f'table = "{ROOT}/configs/leg/').replace('path = "../runs/leg_mujoco.msgpack"', "")
+    if change:
+        assert change[0] in text
+        text = text.replace(*change)
+    path = tmp_path / "leg.toml"
+    path.write_text(text)
+    return path
 
-    with pytest.raises(RtctlError, match="knee_push_rate"):
-        MujocoLegParams.from_table(Table({"knee_push_rate": 100.0}, Path("x.toml"), "sim.leg"))
+
+def rtctl_check(config, env=None):
+    return subprocess.run([sys.executable, "-m", "rtctl.cli", "check", str(config)], capture_output=True, text=True,
+                          timeout=300, cwd=ROOT, env=env)
+
+
+@pytest.mark.parametrize("change, key, says", [
+    (("seed = 1", "seed = 1\nknee_push_rate = 100.0"), "sim.leg.knee_push_rate", "contact physics replaces it"),
+    (("seed = 1", "seed = 1\nsupport = [0.5, 0.0, 0.0, 1.0, 1.5]"), "sim.leg.support", "in [0, 1]"),
+    (("seed = 1", "seed = 1\nsubsteps = 0"), "sim.leg.substeps", "at least 1"),
+    (("seed = 1", "seed = 1\nfoot_mass = 0.0"), "sim.leg.foot_mass", "a positive mass"),
+    (("seed = 1", "seed = 1\nbody_mas = 70.0"), "sim.leg.body_mas", "unknown key"),
+])
+def test_bad_mujoco_leg_options_exit_2_naming_the_key(tmp_path, change, key, says):
+    result = rtctl_check(leg_job(tmp_path, *change))
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert key in result.stderr and says in result.stderr, result.stderr
+
+
+def test_without_the_package_the_mujoco_leg_exits_2_saying_how_to_install_it(tmp_path):
+    blocker = tmp_path / "blocked" / "mujoco"
+    blocker.mkdir(parents=True)
+    (blocker / "__init__.py").write_text("raise ImportError('no module named mujoco (blocked by the test)')\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(blocker.parent), str(ROOT)])}
+    result = rtctl_check(leg_job(tmp_path), env=env)
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert "sim.engine" in result.stderr and "pip install -e '.[mujoco]'" in result.stderr
 
 
 def test_the_mujoco_job_keeps_the_scripted_jobs_gates():
