@@ -6,16 +6,17 @@ MuJoCo underneath (``[sim] engine = "mujoco"`` with ``[sim.leg]``; docs/mujoco.m
   flexion, knee flexion, ankle plantarflexion). The foot touches the ground with two spheres,
   heel and toe, on a frictionless plane: the stance foot slides as the hip swings the leg back
   (the pelvis does not travel forward — a treadmill whose belt offers no drag).
-* **The wearer**: the hip is a stiff position servo on the scripted plant's pattern
-  φ̄ + A cos 2πp. The sound leg carries a share w(p) of the body over the gait phase (all of it
-  while the prosthesis swings, none in the prosthesis's single stance, ramps in double support):
-  it pushes the pelvis up with w (M g + k (h(p) − z) − c ż), h(p) the scripted plant's hip height
-  pattern and k = (body weight)/``contact_depth``. What the sound leg does not carry, the
-  prosthesis must: its loads are the ground's answer, not a script.
+* **The wearer**: the hip is a stiff position servo (20 kN·m/rad) on the scripted plant's pattern
+  φ̄ + A cos 2πp. The pelvis is pushed up with w(p) M g + k (h(p) − z) − c ż: w(p) the share of the
+  body the sound leg carries (all of it while the prosthesis swings, none in the prosthesis's
+  single stance, ramps in double support), h(p) the hip-height pattern (the scripted plant's knots,
+  the stance ones raised to where a straight leg puts the hip) and k = M g/``contact_depth``. What
+  the wearer does not carry, the prosthesis must: its loads are the ground's answer, not a script.
 * **Knee and ankle** follow the actuator codes: hold = a stiff servo at the angle where the hold
-  began; increase/decrease = the same servo on a set point moving at the scripted plant's rate;
-  release = a small spring-damper to the rest angle. Joint ranges are hard stops (the knee's at
-  0° is what keeps a loaded, released knee straight).
+  began; increase/decrease = the same servo on a set point moving at the set rate; release = a
+  spring-damper to the rest angle (the knee: a light spring with a swing damper; the ankle: the
+  foot's keel). Joint ranges are stiff stops (the knee's at 0° keeps a loaded, released knee
+  straight while the ground's force passes in front of it).
 * **Sensors**: the three angles and the normal contact force on the heel and the toe (MuJoCo
   touch sensors), over the weight of the whole body, with the same white noise as the scripted
   plant.
@@ -261,7 +262,9 @@ class MujocoLegPlant:
 
     # -- one period -------------------------------------------------------------------------
     def step(self, dt: float) -> None:
-        """Advance by ``dt`` (``substeps`` MuJoCo steps) with the present actions, then measure."""
+        """Advance one period with the present actions (``substeps`` MuJoCo steps of the period the
+        plant was built for; ``dt`` advances the wearer's pattern and the driven set points), then
+        measure."""
         if dt <= 0:
             return
         self._apply(dt)

@@ -5,6 +5,9 @@
   the controller's whole ``update()``. Goal: ≤ 3 µs per tick.
 * codec: sensor frames encoded and decoded per second (the board's side and the host's), and
   command frames encoded into a preallocated buffer.
+* plant step: one period of each leg plant in a closed-loop walk — the scripted gait generator
+  (configs/leg_sim.toml) and the leg on MuJoCo (configs/leg_mujoco.toml; skipped without the
+  ``mujoco`` package) — and the real-time factor of the plant alone (period / p50).
 * compile: the whole synthesis and both proofs (what ``rtctl leg compile`` does after its
   imports) on synthetic event tables of 6, 9, 12 and 16 states (:mod:`rtctl.logic.synthetic`),
   the complete one (every transition) also at 11 gates, the most a 16-state circuit leaves
@@ -20,6 +23,7 @@ import numpy as np
 from rtctl.bench import percentiles_us
 
 CONFIG = Path(__file__).resolve().parents[2] / "configs" / "leg_sim.toml"
+PLANTS = {"scripted": CONFIG, "MuJoCo": CONFIG.with_name("leg_mujoco.toml")}
 GOAL_US = 3.0
 COMPILE_GOAL_S = 10.0
 COMPILE_CASES = [(kind, n, gates) for kind, gates in (("chain", 8), ("star", 5), ("random", 6), ("complete", 8))
@@ -61,6 +65,38 @@ def _walk_channels(board, controller, ticks: int) -> np.ndarray:
         board.write(0.0)
         rows[k] = board.channels
     return rows
+
+
+def bench_plant_step(config: Path, ticks: int) -> dict:
+    """One period of the configuration's leg plant, timed in a closed-loop walk (the automaton
+    decides the actions each tick, as in the loop)."""
+    from rtctl.config import load_config
+    from rtctl.runtime import build
+
+    rt = build(load_config(config, sim=True))
+    board, ctl = rt.devices[0], rt.controllers[0]
+    board.configure()
+    board.activate()
+    ctl.reset(None)
+    plant, clock, ns = board.plant, time.perf_counter_ns, np.zeros(ticks, np.int64)
+    for k in range(ticks):
+        board.read(0.0)
+        ctl.update(0.0, None, None, None)
+        plant.actions[:] = board.actions
+        a = clock()
+        plant.step(board.period)
+        ns[k] = clock() - a
+    board.close()
+    return {**percentiles_us(ns), "period_us": board.period * 1e6}
+
+
+def bench_plants(ticks: int) -> dict:
+    """:func:`bench_plant_step` of each leg plant; None for MuJoCo without its package."""
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        return {"scripted": bench_plant_step(PLANTS["scripted"], ticks), "MuJoCo": None}
+    return {name: bench_plant_step(config, ticks) for name, config in PLANTS.items()}
 
 
 def bench_leg(ticks: int = 20000) -> dict:
@@ -116,7 +152,7 @@ def bench_leg(ticks: int = 20000) -> dict:
             "gates_settle": percentiles_us(ns_kernel), "update": percentiles_us(ns_update),
             "codec": {"sensor_encode_per_s": enc, "sensor_decode_per_s": decoded, "command_encode_per_s": cmd,
                       "sensor_frame_bytes": proto.SENSOR_LENGTH, "command_frame_bytes": proto.COMMAND_LENGTH},
-            "compile": bench_compile(), "compile_goal_s": COMPILE_GOAL_S}
+            "plant_step": bench_plants(ticks), "compile": bench_compile(), "compile_goal_s": COMPILE_GOAL_S}
 
 
 def format_table(r: dict) -> str:
@@ -130,6 +166,13 @@ def format_table(r: dict) -> str:
     lines.append(f"codec: sensor frames ({c['sensor_frame_bytes']} B) encoded {c['sensor_encode_per_s']:,.0f}/s, "
                  f"decoded {c['sensor_decode_per_s']:,.0f}/s; command frames ({c['command_frame_bytes']} B) "
                  f"encoded {c['command_encode_per_s']:,.0f}/s")
+    lines.append(f"{'leg plant step (one period)':<34}{'p50':>8}{'p99':>8}{'p99.9':>8}{'max':>9}  × real time")
+    for name, p in r["plant_step"].items():
+        if p is None:
+            lines.append(f"  {name:<32}not measured (pip install -e '.[mujoco]')")
+            continue
+        lines.append(f"  {name:<32}{p['p50_us']:>8.2f}{p['p99_us']:>8.2f}{p['p99_9_us']:>8.2f}{p['max_us']:>9.1f}"
+                     f"  {p['period_us'] / p['p50_us']:.0f}")
     lines.append(f"leg compile (synthesis + both proofs), goal ≤ {r['compile_goal_s']:g} s each:")
     lines.append(f"  {'table':<9}{'states':>7}{'gates':>6}{'flip-flops':>11}{'terms':>6}{'passes':>7}{'s':>7}"
                  "  proved  minimum cover")
