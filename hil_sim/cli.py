@@ -124,6 +124,8 @@ def build(args):
     model, period, sim, plans = plan(path)
     if sim is None:
         sim = Table({}, path, "sim")
+    if args.engine is not None:
+        sim = Table({**sim.data, "engine": args.engine}, path, "sim")
     sim.str("transport", "direct")  # (the embedded simulator's choice; not ours)
     plant = SimPlantHub.from_options(sim, model, period, path.parent).plant
     plant.step(0.0)  # load the compiled step before announcing
@@ -238,6 +240,8 @@ def serve_leg(args, path: Path, device) -> int:
     sim = t.table("sim", None)
     if sim is None:
         sim = Table({}, path, "sim")
+    if args.engine is not None:  # (as for the arm: a HIL configuration has no [sim] to say it)
+        sim = Table({**sim.data, "engine": args.engine}, path, "sim")
     plant = leg_plant(sim, sim.table("leg", Table({}, path, "sim.leg")), period)
     watchdog_ms = LEG_WATCHDOG_MS if args.drive_timeout_ms is None else args.drive_timeout_ms
     server = LegBoardServer(plant, period, args.realtime_factor, watchdog_ms / 1e3 * 2.5, emit)
@@ -267,6 +271,9 @@ def main(argv=None) -> int:
                    help="default: the configuration's bus interface (serial for a leg board)")
     p.add_argument("--host", default="127.0.0.1", help="socketcand: address to listen on (loopback)")
     p.add_argument("--port", type=int, help="socketcand: TCP port (default: the configuration's, else a free one)")
+    p.add_argument("--engine", choices=("rigid", "mujoco"), default=None,
+                   help="the plant: rtctl's rigid-body model (default) or MuJoCo, an independent engine (the "
+                        "`mujoco` extra); overrides [sim] engine")
     p.add_argument("--realtime-factor", type=float, default=0.0, metavar="F",
                    help="0 (default): lock-step, one period per command set; F > 0: free-running at F × wall clock")
     p.add_argument("--drive-timeout-ms", type=float, default=None,

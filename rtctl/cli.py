@@ -213,7 +213,7 @@ def _parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "live", "can", "control", "telemetry",
                                         "control-socket", "safety", "trajectory", "leg", "soak", "guard", "grabber",
-                                        "switching"),
+                                        "switching", "plants"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
                             "PUMA 560; loop-timing: an empty loop (like cyclictest); live: the loop with and without "
                             "the Foxglove live view and one viewer, side by side; can: codec and transports; "
@@ -224,7 +224,8 @@ def _parser() -> argparse.ArgumentParser:
                             "guard: the per-tick interference guard (16 zones on 6 joints) and bypass planning "
                             "(against OMPL's RRT-Connect when the `bench` extra is installed); "
                             "grabber: framegrabber driver, unpacking, marker, camera simulator; "
-                            "switching: the loop untouched, then with 10 controller switches or gain sets per second")
+                            "switching: the loop untouched, then with 10 controller switches or gain sets per second; "
+                            "plants: one period of rtctl's plant and of MuJoCo's")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
     bench.add_argument("--config", default=None, help="run configuration for `bench loop`/`live` (default: the shipped one)")

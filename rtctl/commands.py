@@ -154,6 +154,10 @@ def bench(args) -> int:
         from rtctl.bench.can import bench_can as run, format_table
 
         result = run()
+    elif args.what == "plants":
+        from rtctl.bench.plants import bench_plants as run, format_table
+
+        result = run(robot)
     elif args.what == "switching":
         from rtctl.bench.switching import bench_switching as run, format_table
 

@@ -1,33 +1,28 @@
-"""The leg on MuJoCo over HIL: hil-sim serves the leg board on the contact-physics leg behind a pty
-(its configuration says ``[sim] engine = "mujoco"``); rtctl run walks it through the serial driver
-with a configuration that has no ``[sim]`` (which would make its board the embedded one)."""
+"""The leg on MuJoCo over HIL: ``hil-sim --engine mujoco`` serves the leg board on the
+contact-physics leg behind a pty; rtctl run walks it through the serial driver."""
 import pytest
 
 from hil_helpers import CONFIGS, run, unless_stalled, variant
 from test_hil_leg import PATTERN, states
 
 pytest.importorskip("mujoco", reason="the `mujoco` extra is not installed")
-RATE_HZ = "250.0"  # as the scripted leg's HIL test: the machine is shared
 
 
-def configs(tmp_path):
-    """(hil-sim's: configs/leg_mujoco.toml, rtctl run's: configs/leg_hil.toml with leg_mujoco's
-    circuit — the guard semantics and K_d2's 6° band; the exact circuit does not walk on MuJoCo,
-    docs/mujoco.md), both at 250 Hz."""
-    sim = variant(tmp_path, "leg_mujoco.toml", "sim.toml", rate_hz=RATE_HZ)
-    text = sim.read_text().replace('table = "leg/table3.toml"', f'table = "{CONFIGS}/leg/table3.toml"')
-    sim.write_text(text.replace('port = "/dev/ttyUSB0"', 'port = "${HIL_SIM_TTY:-/dev/ttyUSB0}"'))  # announce the pty
-    host = variant(tmp_path, "leg_hil.toml", "run.toml", rate_hz=RATE_HZ)
-    text = host.read_text().replace('table = "leg/table3.toml"', f'table = "{CONFIGS}/leg/table3.toml"\nsemantics = "guard"')
-    host.write_text(text.replace("threshold = 25.0, hysteresis = 2.0", "threshold = 25.0, hysteresis = 6.0"))
-    return sim, host
+def leg_hil_guard(tmp_path):
+    """configs/leg_hil.toml at 250 Hz (as the scripted leg's HIL test: the machine is shared) with
+    configs/leg_mujoco.toml's circuit — the guard semantics and K_d2's 6° band; the exact circuit
+    does not walk on MuJoCo (docs/mujoco.md)."""
+    path = variant(tmp_path, "leg_hil.toml", rate_hz="250.0")
+    text = path.read_text().replace('table = "leg/table3.toml"', f'table = "{CONFIGS}/leg/table3.toml"\nsemantics = "guard"')
+    path.write_text(text.replace("threshold = 25.0, hysteresis = 2.0", "threshold = 25.0, hysteresis = 6.0"))
+    return path
 
 
 @pytest.mark.hil
 @pytest.mark.slow
 def test_the_mujoco_leg_walks_over_the_pty(hil_sim, tmp_path):
-    sim_config, config = configs(tmp_path)
-    sim = hil_sim(sim_config)
+    config = leg_hil_guard(tmp_path)
+    sim = hil_sim(config, "--engine", "mujoco")
     assert sim.info["transport"] == "serial"
     code, summary, tel, err = run(config, tmp_path, sim.env(), duration=30.0, timeout=240)
     exit_event = sim.stop()

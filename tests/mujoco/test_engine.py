@@ -11,32 +11,11 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-PUMA = ROOT / "configs" / "robots" / "puma560.toml"
+sys.path.insert(0, str(ROOT / "tests" / "runtime"))
+from runtime_helpers import BASE  # noqa: E402  (the PUMA job every runtime test starts from)
 
-CONFIG = f"""
-[robot]
-description = "{PUMA}"
-
-[loop]
-rate_hz = 1000.0
-realtime_factor = 0.0
-
-[sim]
-engine = "mujoco"
-substeps = 4
-initial_q = [0.0, 0.7854, -3.1416, 0.0, 0.7854, 0.0]
-
-[[controllers]]
-name = "ct"
-type = "computed_torque"
-kp = 400.0
-kd = 40.0
-
-[trajectory]
-unit = "deg"
-waypoints = [[0, 45, -180, 0, 45, 0], [30, 30, -160, 20, 60, 30], [0, 45, -180, 0, 45, 0]]
-velocity_scale = 0.4
-"""
+CONFIG = BASE.replace("[sim]\n", '[sim]\nengine = "mujoco"\n')
+assert 'engine = "mujoco"' in CONFIG
 
 
 def rtctl(*args, env=None):

@@ -80,8 +80,9 @@ TARGETS = {
               "tests/leg/test_table.py tests/leg/test_compile_limits.py tests/leg/test_walking.py", 300),
     "vision": (["rtctl/vision", "drivers/protocols/framegrabber.py", "drivers/protocols/framegrabber_host.py"],
                "tests/vision --deselect tests/vision/test_vision_run.py", 300),
-    "mcap": (["rtctl/telemetry/mcap_export.py"], "tests/telemetry/test_mcap_export.py "
-             "tests/telemetry/test_mcap_times_and_levels.py", 240),
+    "mcap": (["rtctl/telemetry/mcap_export.py", "rtctl/telemetry/channels.py"],  # (channels: shared with the live view)
+             "tests/telemetry/test_mcap_export.py tests/telemetry/test_mcap_times_and_levels.py "
+             "tests/telemetry/test_live_view.py", 240),
     "trajectory": (["rtctl/trajectory"], "tests/trajectory tests/moves/test_move_units.py tests/moves/test_move_targets.py",
                    240),
 }
