@@ -236,8 +236,28 @@ def _parser() -> argparse.ArgumentParser:
 
     sub.add_parser("doctor", help="report this machine's real-time readiness and what to change")
 
+    _add_cell_parser(sub)
+
     _add_leg_parser(sub)
     return p
+
+
+def _add_cell_parser(sub) -> None:
+    cell = sub.add_parser("cell", help="several robots as one cell over Zenoh: start, status, stop, e-stop, reset "
+                                       "(needs the `cell` extra; docs/cell.md)")
+    cellsub = cell.add_subparsers(dest="cell_command", required=True, metavar="ACTION")
+    for name, text in (("up", "start every daemon of the cell and one Zenoh bridge per robot, show their status, "
+                              "and stop them all on Ctrl-C or SIGTERM (or once every daemon has ended)"),
+                       ("status", "every robot's status, through Zenoh"),
+                       ("stop", "stop every robot's daemon cleanly"),
+                       ("estop", "e-stop every robot of the cell: damping, then drives off; the daemons stay up"),
+                       ("reset", "clear every robot's latched faults whose cause is gone")):
+        p = cellsub.add_parser(name, help=text, description=text)
+        p.add_argument("cellfile", help="cell file (TOML), e.g. configs/cell/two_puma_sim.toml")
+        if name == "up":
+            p.add_argument("--start-timeout", type=_SECONDS, default=300.0, metavar="S",
+                           help="give up when a daemon does not answer within S seconds (a machine's first run "
+                                "compiles the kernels; default 300)")
 
 
 LEG_TABLE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "configs", "leg", "table3.toml")
@@ -338,6 +358,10 @@ def _dispatch(args) -> int:
         from rtctl.logic.cli import leg_command
 
         return leg_command(args)
+    if args.command == "cell":
+        from rtctl.cell.commands import cell_command
+
+        return cell_command(args)
     if args.command == "doctor":
         from rtctl.commands import doctor
 

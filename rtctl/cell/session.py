@@ -1,0 +1,76 @@
+"""Zenoh sessions for the cell, configured here in full (docs/cell.md, "The network"):
+
+* peer mode; every listen endpoint is ``tcp/<host>:<port>`` with the cell's host
+  (127.0.0.1 unless the cell file says otherwise) — never Zenoh's default ``tcp/[::]:0``,
+  which listens on every interface;
+* multicast scouting off (Zenoh's default is on): a peer learns of another only through the
+  endpoints written in the cell file;
+* Zenoh's user/password authentication on every link: a bridge holds the dictionary and
+  refuses a session whose user and password are not in it — its link is never opened, so
+  it can neither query a command nor subscribe to the state.
+"""
+from __future__ import annotations
+
+import json
+
+from rtctl.errors import RtctlError
+
+MISSING = "the cell needs Zenoh: pip install 'rtctl[cell]' (eclipse-zenoh)"
+
+
+def zenoh_module():
+    try:
+        import zenoh
+    except ImportError:
+        raise RtctlError(MISSING) from None
+    return zenoh
+
+
+def session_config(cell, *, listen: tuple = (), connect: tuple = (), user: str | None = None,
+                   password: str | None = None, verify: bool = False):
+    """A ``zenoh.Config``: peer mode, scouting as the cell says (off by default), exactly
+    these endpoints (plus the cell's ``connect``), and usrpwd credentials / the dictionary
+    that checks others' (``verify``)."""
+    zenoh = zenoh_module()
+    c = zenoh.Config()
+    c.insert_json5("mode", '"peer"')
+    c.insert_json5("scouting/multicast/enabled", json.dumps(cell.zenoh.multicast_scouting))
+    c.insert_json5("listen/endpoints", json.dumps(list(listen)))
+    c.insert_json5("connect/endpoints", json.dumps([*connect, *cell.zenoh.connect]))
+    if user is not None:
+        c.insert_json5("transport/auth/usrpwd/user", json.dumps(user))
+        c.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
+    if verify:
+        c.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(str(cell.auth.dictionary_file)))
+    return c
+
+
+def open_bridge_session(cell, robot):
+    """The bridge's session: listens on the robot's endpoint, checks every peer's credentials."""
+    zenoh = zenoh_module()
+    return zenoh.open(session_config(cell, listen=(robot.endpoint(cell.zenoh.host),), user=cell.auth.user,
+                                     password=cell.auth.password(), verify=True))
+
+
+def open_client_session(cell, robots=None, *, credentials="cell", wait_s: float = 2.0):
+    """A session that connects to the bridges of ``robots`` (default: all); it listens nowhere.
+    ``credentials``: "cell" (the cell's user and its password from the dictionary), a
+    (user, password) pair, or None (none: every bridge refuses the link). Returns (session,
+    the number of bridges connected within ``wait_s``)."""
+    import time
+
+    zenoh = zenoh_module()
+    robots = cell.robots if robots is None else robots
+    user = password = None
+    if credentials == "cell":
+        user, password = cell.auth.user, cell.auth.password()
+    elif credentials is not None:
+        user, password = credentials
+    session = zenoh.open(session_config(cell, connect=tuple(r.endpoint(cell.zenoh.host) for r in robots),
+                                        user=user, password=password))
+    deadline = time.monotonic() + wait_s
+    while True:
+        peers = len(list(session.info.peers_zid()))
+        if peers >= len(robots) or time.monotonic() >= deadline:
+            return session, peers
+        time.sleep(0.01)
