@@ -213,7 +213,7 @@ def _parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "live", "can", "control", "telemetry",
                                         "control-socket", "safety", "trajectory", "leg", "soak", "guard", "grabber",
-                                        "switching"),
+                                        "switching", "cell"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
                             "PUMA 560; loop-timing: an empty loop (like cyclictest); live: the loop with and without "
                             "the Foxglove live view and one viewer, side by side; can: codec and transports; "
@@ -224,13 +224,17 @@ def _parser() -> argparse.ArgumentParser:
                             "guard: the per-tick interference guard (16 zones on 6 joints) and bypass planning "
                             "(against OMPL's RRT-Connect when the `bench` extra is installed); "
                             "grabber: framegrabber driver, unpacking, marker, camera simulator; "
-                            "switching: the loop untouched, then with 10 controller switches or gain sets per second")
+                            "switching: the loop untouched, then with 10 controller switches or gain sets per second; "
+                            "cell: cell-wide e-stop latency over Zenoh with 1 and 2 robots, state messages per "
+                            "second, the loops' cost (the `cell` extra)")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
     bench.add_argument("--config", default=None, help="run configuration for `bench loop`/`live` (default: the shipped one)")
     bench.add_argument("--rate", type=_RATE, default=1000.0, help="loop rate for `bench loop` (Hz)")
     bench.add_argument("--seconds", type=_SECONDS, default=10.0,
                        help="duration for `bench loop` and `bench switching` (s; `live`: per run)")
+    bench.add_argument("--trials", type=int, default=100, metavar="N",
+                       help="`bench cell`: cell-wide e-stops per cell size (1 and 2 robots; default 100)")
     bench.add_argument("--minutes", type=_SECONDS, default=10.0,
                        help="duration for `bench soak` (default 10; --config: another HIL configuration)")
 

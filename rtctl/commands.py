@@ -154,6 +154,10 @@ def bench(args) -> int:
         from rtctl.bench.can import bench_can as run, format_table
 
         result = run()
+    elif args.what == "cell":
+        from rtctl.bench.cell import bench_cell as run, format_table
+
+        result = run(args.config, trials=args.trials)
     elif args.what == "switching":
         from rtctl.bench.switching import bench_switching as run, format_table
 

@@ -67,37 +67,38 @@ class CellProcesses:
 
     # -- start -------------------------------------------------------------------------
     def start(self, timeout_s: float, stop_requested=lambda: False) -> None:
-        """Daemons, then (each once its daemon answers) bridges. RtctlError if one exits or
-        does not answer within ``timeout_s`` (what is already running is the caller's to stop);
-        returns early once ``stop_requested()``."""
+        """Each daemon in turn, the next once the previous answers on its socket (the first
+        may compile the kernels the others then load: compiling beside a running loop would
+        make it late), and its bridge. RtctlError if a daemon exits or does not answer within
+        ``timeout_s`` (what already runs is the caller's to stop); returns early once
+        ``stop_requested()``."""
         for m in self.members:
             argv = [sys.executable, "-m", "rtctl.cli", "run", str(m.robot.config), "--socket", str(m.socket),
                     "--telemetry", str(m.telemetry), "--summary", str(m.summary), "--log-format", "json"]
             m.daemon = _spawn(argv + (["--sim"] if m.robot.sim else []), m.log)
             self.say(f"{m.robot.name}: daemon pid {m.daemon.pid}, log {m.log}")
-        deadline = time.monotonic() + timeout_s
-        waiting = list(self.members)
-        while waiting and not stop_requested():
-            for m in list(waiting):
-                if m.daemon.poll() is not None:
-                    raise RtctlError(f"cell {self.cell.name}: {m.robot.name}'s daemon exited with {m.daemon.returncode} "
-                                     f"during start-up; its log: {m.log}\n{_tail(m.log)}")
-                try:
-                    ready = request(m.socket, "status", timeout=0.5)["ok"]
-                except ControlSocketError:
-                    ready = False
-                if ready:
-                    waiting.remove(m)
-                    m.bridge = _spawn([sys.executable, "-m", "rtctl.cell.bridge",
-                                       json.dumps({"cell": str(self.cell.file), "robot": m.robot.name,
-                                                   "socket": str(m.socket)})], m.log.with_suffix(".bridge.log"))
-                    self.say(f"{m.robot.name}: running; bridge pid {m.bridge.pid} on "
-                             f"{m.robot.endpoint(self.cell.zenoh.host)}")
-            if waiting and time.monotonic() > deadline:
-                raise RtctlError(f"cell {self.cell.name}: no answer within {timeout_s:g} s from "
-                                 f"{', '.join(m.robot.name for m in waiting)} (logs in {self.cell.run_dir})")
-            if waiting:
-                time.sleep(POLL_S)
+            if not self._wait_ready(m, time.monotonic() + timeout_s, timeout_s, stop_requested):
+                return
+            m.bridge = _spawn([sys.executable, "-m", "rtctl.cell.bridge",
+                               json.dumps({"cell": str(self.cell.file), "robot": m.robot.name, "socket": str(m.socket)})],
+                              m.log.with_suffix(".bridge.log"))
+            self.say(f"{m.robot.name}: running; bridge pid {m.bridge.pid} on {m.robot.endpoint(self.cell.zenoh.host)}")
+
+    def _wait_ready(self, m: Member, deadline: float, timeout_s: float, stop_requested) -> bool:
+        while not stop_requested():
+            if m.daemon.poll() is not None:
+                raise RtctlError(f"cell {self.cell.name}: {m.robot.name}'s daemon exited with {m.daemon.returncode} "
+                                 f"during start-up; its log: {m.log}\n{_tail(m.log)}")
+            try:
+                if request(m.socket, "status", timeout=0.5)["ok"]:
+                    return True
+            except ControlSocketError:
+                pass
+            if time.monotonic() > deadline:
+                raise RtctlError(f"cell {self.cell.name}: {m.robot.name}'s daemon did not answer within {timeout_s:g} s "
+                                 f"(its log: {m.log})")
+            time.sleep(POLL_S)
+        return False
 
     # -- watch -------------------------------------------------------------------------
     def watch(self, stop_requested) -> None:

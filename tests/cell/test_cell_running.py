@@ -1,0 +1,133 @@
+"""A running two-robot cell (``rtctl cell up`` on the embedded simulator, loopback): its
+commands reach both daemons through Zenoh, each bridge publishes its robot's state, a session
+without the cell's credentials is refused, and every process ends when the cell is stopped.
+
+What a command did is read back from the daemons' control sockets directly, not through the
+cell: the check does not go through the path it checks."""
+from __future__ import annotations
+
+import json
+import signal
+import threading
+import time
+
+import pytest
+
+pytest.importorskip("zenoh", reason="the `cell` extra (eclipse-zenoh) is not installed: pip install 'rtctl[cell]'")
+
+from cell_helpers import PASSWORD, USER, RunningCell, alive, rtctl, write_cell  # noqa: E402
+from rtctl.cell.commands import query_all  # noqa: E402
+from rtctl.cell.config import load_cell  # noqa: E402
+from rtctl.cell.session import open_client_session  # noqa: E402
+from rtctl.control_socket.client import request  # noqa: E402
+
+pytestmark = pytest.mark.timeout(300)
+
+
+@pytest.fixture(scope="module")
+def cell(tmp_path_factory):
+    path = write_cell(tmp_path_factory.mktemp("cell"))
+    running = RunningCell(path)
+    yield load_cell(path), running
+    running.close()
+
+
+def daemon_status(cell, robot: str) -> dict:
+    return request(cell.run_dir / f"{robot}.sock", "status")
+
+
+def test_up_shows_every_robots_status(cell):
+    cfg, running = cell
+    table = "".join(running.lines)
+    for r in cfg.robots:
+        assert f"{r.name}: running; bridge pid" in table
+        assert any(line.split()[:2] == [r.name, "yes"] for line in running.lines)
+
+
+def test_each_bridge_publishes_its_robots_state(cell):
+    cfg, _ = cell
+    session, peers = open_client_session(cfg)
+    got: dict[str, list] = {r.name: [] for r in cfg.robots}
+    lock = threading.Lock()
+
+    def on_state(sample):
+        with lock:
+            got[str(sample.key_expr).split("/")[2]].append(json.loads(sample.payload.to_bytes()))
+
+    sub = session.declare_subscriber(cfg.key("*", "state"), on_state)
+    try:
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and min(len(v) for v in got.values()) < 5:
+            time.sleep(0.05)
+    finally:
+        sub.undeclare()
+        session.close()
+    assert peers == len(cfg.robots)
+    for robot, states in got.items():
+        assert len(states) >= 5, robot
+        s = states[-1]
+        assert s["robot"] == robot and len(s["q"]) == 6 and len(s["qd"]) == 6 and s["verdict"] == "OK"
+        ticks = [x["tick"] for x in states]
+        assert ticks == sorted(ticks) and ticks[-1] > ticks[0]  # a fresh state each period, in order
+
+
+@pytest.mark.parametrize("credentials", [None, (USER, "wrong"), ("intruder", PASSWORD)],
+                         ids=["no credentials", "wrong password", "unknown user"])
+def test_a_session_without_the_cells_credentials_is_refused(cell, credentials):
+    cfg, _ = cell
+    session, peers = open_client_session(cfg, credentials=credentials, wait_s=1.0)
+    try:
+        replies = query_all(cfg, session, "estop", timeout_s=1.0)
+    finally:
+        session.close()
+    assert peers == 0  # no link was opened
+    assert all(not r["ok"] and "no reply" in r["error"] for r in replies.values())
+    for r in cfg.robots:
+        assert daemon_status(cfg, r.name)["estopped"] is False  # the e-stop did not arrive
+
+
+def test_cell_estop_reaches_every_loop_and_reset_clears_it(cell):
+    cfg, _ = cell
+    out = rtctl("cell", "estop", str(cfg.file))
+    assert out.returncode == 0, out.stdout + out.stderr
+    for r in cfg.robots:
+        s = daemon_status(cfg, r.name)
+        assert s["estopped"] is True and s["faults"] == ["operator e-stop"]
+    time.sleep(0.05)
+    out = rtctl("cell", "reset", str(cfg.file))
+    assert out.returncode == 0, out.stdout + out.stderr
+    for r in cfg.robots:
+        s = daemon_status(cfg, r.name)
+        assert s["estopped"] is False and s["faults"] == []
+    out = rtctl("cell", "status", str(cfg.file))
+    assert out.returncode == 0 and out.stdout.count(" yes ") >= len(cfg.robots), out.stdout
+
+
+def test_a_command_the_cell_does_not_forward_is_refused_by_the_bridge(cell):
+    cfg, _ = cell
+    session, _ = open_client_session(cfg)
+    try:
+        replies = query_all(cfg, session, "set", {"key": "ct.kp", "value": 1.0})
+    finally:
+        session.close()
+    assert all(not r["ok"] and "unknown command 'set'" in r["error"] for r in replies.values())
+    assert request(cfg.run_dir / "r0.sock", "get", key="ct.kp")["value"] == [400.0] * 6
+
+
+@pytest.mark.parametrize("how", ["SIGTERM", "SIGINT", "cell stop"])
+def test_stopping_the_cell_leaves_nothing_running(tmp_path, how):
+    path = write_cell(tmp_path, 2)
+    running = RunningCell(path)
+    assert len(running.pids) == 4  # two daemons, two bridges
+    assert all(alive(p) for p in running.pids)
+    if how == "cell stop":
+        out = rtctl("cell", "stop", str(path))
+        assert out.returncode == 0, out.stdout + out.stderr
+        code, rest = running.finish()
+    else:
+        code, rest = running.finish(getattr(signal, how))
+    assert code == 0, rest
+    assert not [p for p in running.pids if alive(p)]
+    for robot in ("r0", "r1"):
+        summary = json.loads((tmp_path / "run" / f"{robot}.summary.json").read_text())
+        assert summary["exit_code"] == 0 and summary["telemetry"]["rows"] > 0
