@@ -66,10 +66,11 @@ class CellProcesses:
                                d / f"{r.name}.log") for r in cell.robots]
 
     # -- start -------------------------------------------------------------------------
-    def start(self, timeout_s: float, stop_requested=lambda: False) -> None:
+    def start(self, timeout_s: float, stop_requested=lambda: False, *, bridges: bool = True) -> None:
         """Each daemon in turn, the next once the previous answers on its socket (the first
         may compile the kernels the others then load: compiling beside a running loop would
-        make it late), and its bridge. RtctlError if a daemon exits or does not answer within
+        make it late), and its bridge (not with ``bridges=False``: the daemons alone, for a
+        side-by-side measurement). RtctlError if a daemon exits or does not answer within
         ``timeout_s`` (what already runs is the caller's to stop); returns early once
         ``stop_requested()``."""
         for m in self.members:
@@ -79,6 +80,8 @@ class CellProcesses:
             self.say(f"{m.robot.name}: daemon pid {m.daemon.pid}, log {m.log}")
             if not self._wait_ready(m, time.monotonic() + timeout_s, timeout_s, stop_requested):
                 return
+            if not bridges:
+                continue
             m.bridge = _spawn([sys.executable, "-m", "rtctl.cell.bridge",
                                json.dumps({"cell": str(self.cell.file), "robot": m.robot.name, "socket": str(m.socket)})],
                               m.log.with_suffix(".bridge.log"))
