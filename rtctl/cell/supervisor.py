@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from rtctl.control_socket.client import request
-from rtctl.errors import ControlSocketError, RtctlError
+from rtctl.errors import EXIT_HARDWARE, ControlSocketError, RtctlError
 
 STOP_S = 10.0  # a daemon's controlled stop: damping, drives off, telemetry and summary written
 TERM_S = 5.0
@@ -138,7 +138,8 @@ class CellProcesses:
         for m in self.members:
             if m.daemon is not None:
                 self.say(f"{m.robot.name}: daemon exit code {m.daemon.returncode}, summary {m.summary}")
-        return next((c for c in codes if c != 0), 0)
+        # a daemon killed by a signal never confirmed its drives off: as `rtctl run` says of that (4)
+        return next((c if c > 0 else EXIT_HARDWARE for c in codes if c != 0), 0)
 
     def pids(self) -> list[int]:
         return [p.pid for m in self.members for p in (m.daemon, m.bridge) if p is not None]

@@ -3,6 +3,7 @@ file leaves out, and every mistake exits 2 naming the file, the key path and wha
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 
@@ -49,6 +50,9 @@ BAD = [  # (what to change in a valid two-robot file, the key path named, words 
     (lambda s: s.replace('name = "r1"', 'name = "r/1"'), "robots[1].name", "Zenoh key chunk"),
     (lambda s: s.replace('name = "r1"', 'name = "r0"'), "robots[1].name", "is taken"),
     (lambda s: s.replace('sim = true', 'sim = true\nspeed = 3', 1), "robots[0].speed", "unknown key"),
+    (lambda s: s.replace(re.findall(r"port = \d+", s)[1], re.findall(r"port = \d+", s)[0]), "robots[1].port",
+     "is taken"),
+    (lambda s: s.replace('port = ', 'port = 80 #', 1), "robots[0].port", "≥ 1024"),
     (lambda s: s.replace('dictionary_file = "users"', 'dictionary_file = "nope"'), "auth.dictionary_file",
      "not found"),
     (lambda s: s.replace('config = "', 'config = "missing/', 1), "robots[0].config", "not found"),
