@@ -262,6 +262,9 @@ def _add_cell_parser(sub) -> None:
             p.add_argument("--start-timeout", type=_SECONDS, default=300.0, metavar="S",
                            help="give up when a daemon does not answer within S seconds (a machine's first run "
                                 "compiles the kernels; default 300)")
+            p.add_argument("--robot", action="append", metavar="NAME",
+                           help="start only this robot (repeatable; default: all): a cell on several hosts "
+                                "starts each host's robots there")
 
 
 LEG_TABLE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "configs", "leg", "table3.toml")

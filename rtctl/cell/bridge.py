@@ -3,7 +3,8 @@
 ``python -m rtctl.cell.bridge CONFIG-JSON`` (``{"cell": PATH, "robot": NAME, "socket": PATH}``),
 started by ``rtctl cell up`` beside the daemon. Zenoh never runs in the loop's process: this
 process talks to the daemon only through its control socket, the way ``rtctl status`` does.
-It runs at a lower priority than the loop (nice 10).
+It runs at the ordinary priority: it carries the e-stop, so it must not be starved by
+the machine's other work; a loop at SCHED_FIFO preempts it anyway.
 
 * ``rtctl/<cell>/<robot>/cmd/<name>`` — a queryable; ``status``, ``stop``, ``estop``,
   ``reset`` and ``move`` are forwarded to the control socket (a ``move``'s fields as the
@@ -113,7 +114,7 @@ class Bridge:
         if with_status:
             self.status.put(json.dumps({"daemon": status, "robot": self.robot.name, "bridge_pid": os.getpid(),
                                         "socket": str(self.socket),
-                                        "endpoint": self.robot.endpoint(self.cell.zenoh.host),
+                                        "endpoint": self.robot.endpoint(),
                                         "base": self.robot.base.tolist(), "state_rate_hz": self.cell.state_rate_hz,
                                         "state_messages": self.published}))
 
@@ -123,7 +124,6 @@ def main(argv=None) -> int:
     stop = threading.Event()
     for s in (signal.SIGTERM, signal.SIGINT):
         signal.signal(s, lambda *_: stop.set())
-    os.nice(10)  # never compete with a loop for a core
     cell = load_cell(config["cell"], check_robots=False)
     robot = cell.robot(config["robot"])
     session = open_bridge_session(cell, robot)

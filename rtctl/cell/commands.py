@@ -12,7 +12,7 @@ import time
 
 from rtctl.cell.config import load_cell
 from rtctl.cell.session import open_client_session, zenoh_module
-from rtctl.errors import EXIT_FAULT, EXIT_OK, EXIT_SOCKET
+from rtctl.errors import EXIT_FAULT, EXIT_OK, EXIT_SOCKET, ConfigError
 
 QUERY_TIMEOUT_S = 3.0
 BRIDGES_UP_S = 15.0
@@ -65,32 +65,46 @@ def cell_command(args) -> int:
     return EXIT_OK if all(r["ok"] for r in replies.values()) else EXIT_FAULT
 
 
-def _first_status(cell, stop: list, timeout_s: float = BRIDGES_UP_S) -> dict:
-    """Every robot's status through Zenoh, asked until each bridge has answered (they open
-    their sessions while this one connects) or ``timeout_s``."""
-    session, _ = open_client_session(cell, wait_s=timeout_s)
+def _first_status(cell, robots, stop: list, timeout_s: float = BRIDGES_UP_S) -> dict:
+    """Every robot's status through Zenoh, asked until the bridges of ``robots`` (those this
+    command started) have answered — they open their sessions while this one connects — or
+    ``timeout_s``."""
+    session, _ = open_client_session(cell, robots, wait_s=timeout_s)
     deadline = time.monotonic() + timeout_s
     try:
         while True:
             replies = query_all(cell, session, "status", timeout_s=1.0)
-            if all("robot" in r for r in replies.values()) or stop or time.monotonic() > deadline:
+            if all("robot" in replies[r.name] for r in robots) or stop or time.monotonic() > deadline:
                 return replies
     finally:
         session.close()
+
+
+def _robots(cell, names) -> tuple:
+    """The robots ``--robot`` names (all of them without it), or exit 2 for a name the cell lacks."""
+    if not names:
+        return cell.robots
+    known = [r.name for r in cell.robots]
+    for name in names:
+        if name not in known:
+            raise ConfigError("<command line>", "--robot", f"a robot of cell {cell.name!r} ({', '.join(known)}), "
+                                                          f"got {name!r}")
+    return tuple(r for r in cell.robots if r.name in names)
 
 
 def cell_up(args) -> int:
     from rtctl.cell.supervisor import CellProcesses
 
     cell = load_cell(args.cellfile)
+    robots = _robots(cell, args.robot)
     zenoh_module()  # (exit before anything starts if Zenoh is missing)
     stop = []
     previous = {s: signal.signal(s, lambda signum, _: stop.append(signum)) for s in (signal.SIGINT, signal.SIGTERM)}
-    procs = CellProcesses(cell)
+    procs = CellProcesses(cell, robots)
     try:
         procs.start(args.start_timeout, stop_requested=lambda: bool(stop))
         if not stop:
-            print(format_replies(cell.name, _first_status(cell, stop)), flush=True)
+            print(format_replies(cell.name, _first_status(cell, robots, stop)), flush=True)
             print("running; Ctrl-C or SIGTERM stops every robot of the cell", flush=True)
             procs.watch(lambda: bool(stop))
     finally:

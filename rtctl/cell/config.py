@@ -27,11 +27,12 @@ class CellRobot:
     name: str
     config: Path  # the run configuration, absolute
     base: np.ndarray  # the robot's base pose in the cell: x, y, z (m), roll, pitch, yaw (rad)
-    port: int  # its bridge listens on tcp/<zenoh.host>:<port>
+    host: str  # its bridge listens on tcp/<host>:<port>
+    port: int
     sim: bool  # `rtctl run --sim`
 
-    def endpoint(self, host: str) -> str:
-        return f"tcp/{host}:{self.port}"
+    def endpoint(self) -> str:
+        return f"tcp/{self.host}:{self.port}"
 
 
 @dataclass(frozen=True)
@@ -54,7 +55,7 @@ class SharedZone:
 
 @dataclass(frozen=True)
 class ZenohSettings:
-    host: str  # every listen endpoint's address
+    host: str  # the address a robot's bridge listens on unless the robot says otherwise
     connect: tuple  # extra endpoints to connect to (a router on another host), e.g. "tcp/10.0.0.2:7447"
     multicast_scouting: bool
 
@@ -109,6 +110,13 @@ def _name(t: Table, key: str, what: str) -> str:
     return value
 
 
+def _host(t: Table, default: str) -> str:
+    host = t.str("host", default)
+    if not re.fullmatch(r"\d{1,3}(\.\d{1,3}){3}", host) or any(int(x) > 255 for x in host.split(".")):
+        raise t.error("host", f"an IPv4 address to listen on (default {default}), got {host!r}")
+    return host
+
+
 def _port(t: Table, key: str) -> int:
     return t.int(key, min=1024, max=65535)
 
@@ -116,9 +124,7 @@ def _port(t: Table, key: str) -> int:
 def _zenoh(t: Table | None) -> ZenohSettings:
     if t is None:
         return ZenohSettings(LOOPBACK, (), False)
-    host = t.str("host", LOOPBACK)
-    if not re.fullmatch(r"\d{1,3}(\.\d{1,3}){3}", host):
-        raise t.error("host", f"an IPv4 address to listen on (default {LOOPBACK}), got {host!r}")
+    host = _host(t, LOOPBACK)
     connect = t.raw("connect", [])
     if not isinstance(connect, list) or not all(isinstance(e, str) and re.fullmatch(r"(tcp|tls|quic)/\S+:\d+", e)
                                                 for e in connect):
@@ -140,12 +146,13 @@ def _auth(t: Table, base: Path) -> CellAuth:
     return CellAuth(user, dictionary)
 
 
-def _robot(t: Table, base: Path, check_robots: bool):
+def _robot(t: Table, base: Path, check_robots: bool, default_host: str):
     name = _name(t, "name", "robot")
     config = (base / t.str("config")).resolve()
     if not config.is_file():
         raise t.error("config", f"a run configuration (relative to the cell file's folder); {config} not found")
     pose = t.vector("base", 6, [0, 0, 0, 0, 0, 0])
+    host = _host(t, default_host)
     port = _port(t, "port")
     sim = t.bool("sim", False)
     t.done()
@@ -154,7 +161,7 @@ def _robot(t: Table, base: Path, check_robots: bool):
         from rtctl.config import load_config
 
         model = load_config(config, sim=sim).model  # its own errors name its own file
-    return CellRobot(name, config, pose, port, sim), model
+    return CellRobot(name, config, pose, host, port, sim), model
 
 
 def _zone(t: Table, models: dict) -> SharedZone:
@@ -208,11 +215,11 @@ def load_cell(path, *, check_robots: bool = True) -> CellConfig:
         raise t.error("robots", "at least one [[robots]] table")
     robots, models = [], {}
     for r in robots_t:
-        robot, model = _robot(r, base, check_robots)
+        robot, model = _robot(r, base, check_robots, zenoh.host)
         if robot.name in models:
             raise r.error("name", f"a name no other robot of the cell has; {robot.name!r} is taken")
-        if any(x.port == robot.port for x in robots):
-            raise r.error("port", f"a port no other robot of the cell listens on; {robot.port} is taken")
+        if any(x.endpoint() == robot.endpoint() for x in robots):
+            raise r.error("port", f"an endpoint no other robot of the cell listens on; {robot.endpoint()} is taken")
         robots.append(robot)
         models[robot.name] = model
     zones = tuple(_zone(z, models) for z in t.tables("zones", []))

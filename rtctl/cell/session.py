@@ -48,15 +48,16 @@ def session_config(cell, *, listen: tuple = (), connect: tuple = (), user: str |
 def open_bridge_session(cell, robot):
     """The bridge's session: listens on the robot's endpoint, checks every peer's credentials."""
     zenoh = zenoh_module()
-    return zenoh.open(session_config(cell, listen=(robot.endpoint(cell.zenoh.host),), user=cell.auth.user,
+    return zenoh.open(session_config(cell, listen=(robot.endpoint(),), user=cell.auth.user,
                                      password=cell.auth.password(), verify=True))
 
 
 def open_client_session(cell, robots=None, *, credentials="cell", wait_s: float = 2.0):
-    """A session that connects to the bridges of ``robots`` (default: all); it listens nowhere.
+    """A session that connects to the bridges of ``robots`` (default: all) — or, when the cell
+    connects to a router (``[zenoh] connect``), to the router only; it listens nowhere.
     ``credentials``: "cell" (the cell's user and its password from the dictionary), a
     (user, password) pair, or None (none: every bridge refuses the link). Returns (session,
-    the number of bridges connected within ``wait_s``)."""
+    the number of bridges — or routers — connected within ``wait_s``)."""
     import time
 
     zenoh = zenoh_module()
@@ -66,11 +67,13 @@ def open_client_session(cell, robots=None, *, credentials="cell", wait_s: float 
         user, password = cell.auth.user, cell.auth.password()
     elif credentials is not None:
         user, password = credentials
-    session = zenoh.open(session_config(cell, connect=tuple(r.endpoint(cell.zenoh.host) for r in robots),
+    routed = bool(cell.zenoh.connect)
+    session = zenoh.open(session_config(cell, connect=() if routed else tuple(r.endpoint() for r in robots),
                                         user=user, password=password))
+    wanted = 1 if routed else len(robots)
     deadline = time.monotonic() + wait_s
     while True:
-        peers = len(list(session.info.peers_zid()))
-        if peers >= len(robots) or time.monotonic() >= deadline:
-            return session, peers
+        linked = len(list(session.info.routers_zid() if routed else session.info.peers_zid()))
+        if linked >= wanted or time.monotonic() >= deadline:
+            return session, linked
         time.sleep(0.01)

@@ -58,12 +58,14 @@ def _spawn(argv, log: Path) -> subprocess.Popen:
 
 
 class CellProcesses:
-    def __init__(self, cell, *, say=print):
+    """The processes of ``robots`` (default: every robot of the cell; on several hosts, this host's)."""
+
+    def __init__(self, cell, robots=None, *, say=print):
         self.cell, self.say = cell, say
         cell.run_dir.mkdir(parents=True, exist_ok=True)
         d = cell.run_dir
         self.members = [Member(r, d / f"{r.name}.sock", d / f"{r.name}.msgpack", d / f"{r.name}.summary.json",
-                               d / f"{r.name}.log") for r in cell.robots]
+                               d / f"{r.name}.log") for r in (cell.robots if robots is None else robots)]
 
     # -- start -------------------------------------------------------------------------
     def start(self, timeout_s: float, stop_requested=lambda: False, *, bridges: bool = True) -> None:
@@ -85,7 +87,7 @@ class CellProcesses:
             m.bridge = _spawn([sys.executable, "-m", "rtctl.cell.bridge",
                                json.dumps({"cell": str(self.cell.file), "robot": m.robot.name, "socket": str(m.socket)})],
                               m.log.with_suffix(".bridge.log"))
-            self.say(f"{m.robot.name}: running; bridge pid {m.bridge.pid} on {m.robot.endpoint(self.cell.zenoh.host)}")
+            self.say(f"{m.robot.name}: running; bridge pid {m.bridge.pid} on {m.robot.endpoint()}")
 
     def _wait_ready(self, m: Member, deadline: float, timeout_s: float, stop_requested) -> bool:
         while not stop_requested():

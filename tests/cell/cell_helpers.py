@@ -54,9 +54,9 @@ def rtctl(*args, timeout=60.0) -> subprocess.CompletedProcess:
 class RunningCell:
     """``rtctl cell up CELLFILE`` in a process of its own; ``pids`` once it says "running"."""
 
-    def __init__(self, cellfile: Path, start_timeout_s: float = 240.0):
+    def __init__(self, cellfile: Path, start_timeout_s: float = 240.0, extra_args=()):
         self.cellfile = cellfile
-        self.proc = subprocess.Popen([sys.executable, "-m", "rtctl.cli", "cell", "up", str(cellfile)],
+        self.proc = subprocess.Popen([sys.executable, "-m", "rtctl.cli", "cell", "up", str(cellfile), *extra_args],
                                      stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                                      env=os.environ | {"PYTHONPATH": str(REPO)})
         self.lines: list[str] = []

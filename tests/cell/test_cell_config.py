@@ -19,7 +19,7 @@ def test_the_shipped_cell_loads_with_loopback_peers_and_scouting_off():
     cell = load_cell(SHIPPED)
     assert [r.name for r in cell.robots] == ["left", "right"]
     assert cell.zenoh.host == "127.0.0.1" and not cell.zenoh.multicast_scouting and cell.zenoh.connect == ()
-    assert [r.endpoint(cell.zenoh.host) for r in cell.robots] == ["tcp/127.0.0.1:7471", "tcp/127.0.0.1:7472"]
+    assert [r.endpoint() for r in cell.robots] == ["tcp/127.0.0.1:7471", "tcp/127.0.0.1:7472"]
     assert cell.state_rate_hz == 100.0
     assert cell.auth.password() == "two-puma-sim-only"
     assert [z.name for z in cell.zones] == ["fixture"] and [g.robot for g in cell.zones[0].regions] == ["left", "right"]
@@ -37,7 +37,7 @@ def test_the_zenoh_configuration_written_is_peer_loopback_without_multicast(tmp_
     from rtctl.cell.session import session_config
 
     cell = load_cell(write_cell(tmp_path, 1))
-    c = session_config(cell, listen=(cell.robots[0].endpoint(cell.zenoh.host),), user="u", password="p", verify=True)
+    c = session_config(cell, listen=(cell.robots[0].endpoint(),), user="u", password="p", verify=True)
     assert json.loads(c.get_json("mode")) == "peer"
     assert json.loads(c.get_json("scouting/multicast/enabled")) is False  # Zenoh's own default is true
     assert json.loads(c.get_json("listen/endpoints")) == [f"tcp/127.0.0.1:{cell.robots[0].port}"]
@@ -53,6 +53,7 @@ BAD = [  # (what to change in a valid two-robot file, the key path named, words 
     (lambda s: s.replace(re.findall(r"port = \d+", s)[1], re.findall(r"port = \d+", s)[0]), "robots[1].port",
      "is taken"),
     (lambda s: s.replace('port = ', 'port = 80 #', 1), "robots[0].port", "≥ 1024"),
+    (lambda s: s.replace('sim = true', 'sim = true\nhost = "127.0.0.256"', 1), "robots[0].host", "IPv4"),
     (lambda s: s.replace('dictionary_file = "users"', 'dictionary_file = "nope"'), "auth.dictionary_file",
      "not found"),
     (lambda s: s.replace('config = "', 'config = "missing/', 1), "robots[0].config", "not found"),
@@ -80,6 +81,21 @@ joints = ["waist", "shoulder"]
 lo = [-0.8, 0.2]
 hi = [-0.3, 0.9]
 '''
+
+
+def test_a_robots_own_host_and_the_same_port_on_another_host(tmp_path):
+    path = write_cell(tmp_path)
+    text = path.read_text()
+    port0 = re.findall(r"port = (\d+)", text)[0]
+    text = text.replace(re.findall(r"port = \d+", text)[1], f'port = {port0}\nhost = "10.0.0.12"')
+    path.write_text(text)
+    cell = load_cell(path)
+    assert [r.endpoint() for r in cell.robots] == [f"tcp/127.0.0.1:{port0}", f"tcp/10.0.0.12:{port0}"]
+
+
+def test_cell_up_refuses_a_robot_the_cell_lacks(tmp_path, capsys):
+    assert main(["cell", "up", str(write_cell(tmp_path)), "--robot", "r9"]) == 2
+    assert "--robot: a robot of cell 'testcell' (r0, r1), got 'r9'" in capsys.readouterr().err
 
 
 def test_a_valid_zone_loads(tmp_path):

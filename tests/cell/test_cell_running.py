@@ -131,3 +131,17 @@ def test_stopping_the_cell_leaves_nothing_running(tmp_path, how):
     for robot in ("r0", "r1"):
         summary = json.loads((tmp_path / "run" / f"{robot}.summary.json").read_text())
         assert summary["exit_code"] == 0 and summary["telemetry"]["rows"] > 0
+
+
+def test_up_with_robot_starts_only_that_robot(tmp_path):
+    path = write_cell(tmp_path, 2)
+    running = RunningCell(path, extra_args=("--robot", "r1"))
+    try:
+        assert len(running.pids) == 2  # r1's daemon and bridge
+        table = {line.split()[0]: line.split()[1] for line in running.lines if line.startswith(("r0 ", "r1 "))}
+        assert table == {"r0": "NO", "r1": "yes"}  # r0 is another host's: not started here, not reachable
+        assert not (tmp_path / "run" / "r0.log").exists()
+    finally:
+        code, rest = running.finish(signal.SIGTERM)
+    assert code == 0, rest
+    assert not [p for p in running.pids if alive(p)]
