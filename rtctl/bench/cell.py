@@ -137,6 +137,7 @@ def _run_cell(config: Path, n: int, trials: int, cell_on: bool) -> dict:
             "refused_replies": refused,
             "estop_ms": {"p50": float(np.percentile(lat, 50)), "p99": float(np.percentile(lat, 99)),
                          "max": float(lat.max())},
+            "estop_ms_each": [round(x, 3) for x in latencies],  # robot by robot, trial by trial
             "round_trip_ms_p99": float(np.percentile(round_trip_ns, 99)) / 1e6,
             "state_msgs_per_s": None if states is None else states / elapsed,
             "loops": [{"robot": m.robot.name, "rate_hz": s["timing"].get("achieved_rate_hz"),
