@@ -3,6 +3,7 @@ file leaves out, and every mistake exits 2 naming the file, the key path and wha
 from __future__ import annotations
 
 import json
+import math
 import re
 
 import pytest
@@ -23,6 +24,7 @@ def test_the_shipped_cell_loads_with_loopback_peers_and_scouting_off():
     assert cell.state_rate_hz == 100.0
     assert cell.auth.password() == "two-puma-sim-only"
     assert [z.name for z in cell.zones] == ["fixture"] and [g.robot for g in cell.zones[0].regions] == ["left", "right"]
+    assert cell.zones[0].regions[0].part.hi.tolist() == [0.8, 0.9]
     assert cell.key("left", "state") == "rtctl/two_puma_sim/left/state"
 
 
@@ -63,7 +65,10 @@ BAD = [  # (what to change in a valid two-robot file, the key path named, words 
     (lambda s: s + ZONE.replace('robot = "r1"', 'robot = "r7"'), "zones[0].regions[1].robot", "one of the cell"),
     (lambda s: s + ZONE.split("[[zones.regions]]")[0] + "[[zones.regions]]" + ZONE.split("[[zones.regions]]")[1],
      "zones[0].regions", "at least two robots"),
-    (lambda s: s + ZONE.replace('hi = [-0.3, 0.9]', 'hi = [-0.9, 0.9]'), "zones[0].regions[1].hi", "above its lo"),
+    (lambda s: s + ZONE.replace('hi = [-0.3, 0.9]', 'hi = [-0.9, 0.9]'), "zones[0].regions[1].lo", "lo < hi"),
+    (lambda s: s + ZONE.replace('lo = [0.3, 0.2]', 'polygon = [[0, 0], [1, 0], [0, 1]]\nlo = [0.3, 0.2]'),
+     "zones[0].regions[0].polygon", "either polygon"),
+    (lambda s: s + ZONE.replace('name = "fixture"', 'name = "fixture"\nunit = "grad"'), "zones[0].unit", "'deg'"),
     (lambda s: s + ZONE.replace('joints = ["waist", "shoulder"]\nlo = [-0.8', 'joints = ["waist", "knee"]\nlo = [-0.8'),
      "zones[0].regions[1].joints", "unknown: 'knee'"),
 ]
@@ -98,11 +103,16 @@ def test_cell_up_refuses_a_robot_the_cell_lacks(tmp_path, capsys):
     assert "--robot: a robot of cell 'testcell' (r0, r1), got 'r9'" in capsys.readouterr().err
 
 
-def test_a_valid_zone_loads(tmp_path):
+def test_a_valid_zone_loads_in_its_unit(tmp_path):
     path = write_cell(tmp_path)
     path.write_text(path.read_text() + ZONE)
     (zone,) = load_cell(path).zones
-    assert zone.regions[1].joints == (0, 1) and zone.regions[1].lo.tolist() == [-0.8, 0.2]
+    assert zone.regions[1].part.joints == (0, 1) and zone.regions[1].part.lo.tolist() == [-0.8, 0.2]
+    path.write_text(path.read_text().replace('name = "fixture"', 'name = "fixture"\nunit = "deg"')
+                    .replace("lo = [-0.8, 0.2]", "lo = [-45, 10]").replace("hi = [-0.3, 0.9]", "hi = [-20, 50]"))
+    part = load_cell(path).zones[0].regions[1].part
+    assert part.lo == pytest.approx([-math.pi / 4, math.pi / 18])  # (waist and shoulder are revolute)
+    assert load_cell(path, check_robots=False).zones == ()  # the commands to a running cell skip them
 
 
 @pytest.mark.parametrize("change, key, words", BAD, ids=[b[1] for b in BAD])
