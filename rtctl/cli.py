@@ -44,6 +44,17 @@ _FINITE = _number("a finite number", lambda x: True)
 _RATE = _number("a rate in Hz in [1, 100000]", lambda x: 1 <= x <= 1e5)
 
 
+def _count(text: str) -> int:
+    """An argparse type: an integer ≥ 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer ≥ 1, got {text!r}")
+    return value
+
+
 class _Version(argparse.Action):
     """``--version``: looked up only when asked (importlib.metadata costs 40 ms every command)."""
 
@@ -233,7 +244,7 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--rate", type=_RATE, default=1000.0, help="loop rate for `bench loop` (Hz)")
     bench.add_argument("--seconds", type=_SECONDS, default=10.0,
                        help="duration for `bench loop` and `bench switching` (s; `live`: per run)")
-    bench.add_argument("--trials", type=int, default=100, metavar="N",
+    bench.add_argument("--trials", type=_count, default=100, metavar="N",
                        help="`bench cell`: cell-wide e-stops per cell size (1 and 2 robots; default 100)")
     bench.add_argument("--minutes", type=_SECONDS, default=10.0,
                        help="duration for `bench soak` (default 10; --config: another HIL configuration)")

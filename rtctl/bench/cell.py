@@ -158,7 +158,8 @@ def bench_cell(config=None, trials: int = 100, sizes=(1, 2)) -> dict:
     if isinstance(trials, bool) or not isinstance(trials, int) or trials < 1:
         raise ValueError(f"trials: expected an integer ≥ 1, got {trials!r}")
     config = Path(config or SHIPPED).resolve()
-    return {"config": str(config), "rate_hz": _rate(config), "goal_estop_p99_ms": GOAL_P99_MS,
+    label = str(config.relative_to(Path.cwd())) if config.is_relative_to(Path.cwd()) else str(config)
+    return {"config": label, "rate_hz": _rate(config), "goal_estop_p99_ms": GOAL_P99_MS,
             "cells": [_run_cell(config, n, trials, on) for n in sizes for on in (False, True)]}
 
 
@@ -174,4 +175,11 @@ def format_table(result: dict) -> str:
         msgs = "-" if c["state_msgs_per_s"] is None else f"{c['state_msgs_per_s']:.0f}"
         lines.append(f"{c['robots']:>6} {c['cell']:>4} {c['trials']:>6} {e['p50']:>7.2f} ms {e['p99']:>5.2f} ms "
                      f"{e['max']:>5.2f} ms {c['round_trip_ms_p99']:>5.2f} ms {msgs:>11}  {loops}")
+    by = {(c["robots"], c["cell"]): c for c in result["cells"]}
+    for n in sorted({c["robots"] for c in result["cells"]}):
+        if (n, "on") in by and (n, "off") in by:
+            worst = [max(lp[key] for lp in by[n, on]["loops"]) for key in ("compute_p99_us", "lateness_p99_us")
+                     for on in ("on", "off")]
+            lines.append(f"{n} robot(s), the worst loop, cell on / off: compute p99 {worst[0] / worst[1]:.2f}, "
+                         f"wake lateness p99 {worst[2]:.0f} / {worst[3]:.0f} µs (goal: compute within 1.10)")
     return "\n".join(lines)
