@@ -28,7 +28,7 @@ import time
 from rtctl.cell.config import load_cell
 from rtctl.cell.session import open_bridge_session
 from rtctl.control_socket.client import request
-from rtctl.errors import ControlSocketError
+from rtctl.errors import EXIT_SOCKET, ControlSocketError
 
 FORWARDED = ("status", "stop", "estop", "reset", "move")
 REQUEST_TIMEOUT_S = 2.0
@@ -126,7 +126,11 @@ def main(argv=None) -> int:
         signal.signal(s, lambda *_: stop.set())
     cell = load_cell(config["cell"], check_robots=False)
     robot = cell.robot(config["robot"])
-    session = open_bridge_session(cell, robot)
+    try:
+        session = open_bridge_session(cell, robot)
+    except Exception as e:  # zenoh.ZError: e.g. the port is taken
+        print(f"rtctl bridge {robot.name}: cannot open its Zenoh session on {robot.endpoint()}: {e}", file=sys.stderr)
+        return EXIT_SOCKET
     try:
         return Bridge(cell, robot, config["socket"], session).serve(stop)
     finally:

@@ -8,11 +8,12 @@ from __future__ import annotations
 
 import json
 import signal
+import sys
 import time
 
 from rtctl.cell.config import load_cell
 from rtctl.cell.session import open_client_session, zenoh_module
-from rtctl.errors import EXIT_FAULT, EXIT_OK, EXIT_SOCKET, ConfigError
+from rtctl.errors import EXIT_FAULT, EXIT_OK, EXIT_SOCKET, ConfigError, RtctlError
 
 QUERY_TIMEOUT_S = 3.0
 BRIDGES_UP_S = 15.0
@@ -65,15 +66,18 @@ def cell_command(args) -> int:
     return EXIT_OK if all(r["ok"] for r in replies.values()) else EXIT_FAULT
 
 
-def _first_status(cell, robots, stop: list, timeout_s: float = BRIDGES_UP_S) -> dict:
-    """Every robot's status through Zenoh, asked until the bridges of ``robots`` (those this
-    command started) have answered — they open their sessions while this one connects — or
-    ``timeout_s``."""
+def _first_status(cell, procs, stop: list, timeout_s: float = BRIDGES_UP_S) -> dict:
+    """Every robot's status through Zenoh, asked until the bridges ``procs`` started have
+    answered — they open their sessions while this one connects — or ``timeout_s``; a
+    bridge that ends meanwhile is an error."""
+    robots = [m.robot for m in procs.members]
     session, _ = open_client_session(cell, robots, wait_s=timeout_s)
     deadline = time.monotonic() + timeout_s
     try:
         while True:
             replies = query_all(cell, session, "status", timeout_s=1.0)
+            if procs.lost_bridge() is not None:
+                raise RtctlError(f"cell {cell.name}: {procs.lost_bridge()}")
             if all("robot" in replies[r.name] for r in robots) or stop or time.monotonic() > deadline:
                 return replies
     finally:
@@ -101,14 +105,17 @@ def cell_up(args) -> int:
     stop = []
     previous = {s: signal.signal(s, lambda signum, _: stop.append(signum)) for s in (signal.SIGINT, signal.SIGTERM)}
     procs = CellProcesses(cell, robots)
+    lost = None
     try:
         procs.start(args.start_timeout, stop_requested=lambda: bool(stop))
         if not stop:
-            print(format_replies(cell.name, _first_status(cell, robots, stop)), flush=True)
+            print(format_replies(cell.name, _first_status(cell, procs, stop)), flush=True)
             print("running; Ctrl-C or SIGTERM stops every robot of the cell", flush=True)
-            procs.watch(lambda: bool(stop))
+            lost = procs.watch(lambda: bool(stop))
+            if lost is not None:
+                print(f"rtctl: cell {cell.name}: {lost}; stopping every robot", file=sys.stderr, flush=True)
     finally:
         code = procs.stop()
         for s, h in previous.items():
             signal.signal(s, h)
-    return code
+    return code or (EXIT_FAULT if lost is not None else EXIT_OK)

@@ -49,6 +49,7 @@ class Member:
     log: Path
     daemon: subprocess.Popen | None = None
     bridge: subprocess.Popen | None = None
+    answered: bool = False  # its loop has served a request
 
 
 def _spawn(argv, log: Path) -> subprocess.Popen:
@@ -96,6 +97,7 @@ class CellProcesses:
                                  f"during start-up; its log: {m.log}\n{_tail(m.log)}")
             try:
                 if request(m.socket, "status", timeout=0.5)["ok"]:
+                    m.answered = True
                     return True
             except ControlSocketError:
                 pass
@@ -106,18 +108,31 @@ class CellProcesses:
         return False
 
     # -- watch -------------------------------------------------------------------------
-    def watch(self, stop_requested) -> None:
-        """Until ``stop_requested()`` or every daemon has ended; a child that ends alone is reported."""
+    def watch(self, stop_requested) -> str | None:
+        """Until ``stop_requested()`` or every daemon has ended (None), or a bridge ends while
+        its daemon runs: then the cell can no longer e-stop that robot, and the reason is
+        returned for the caller to stop the cell. A daemon that ends alone is reported."""
         reported = set()
         while not stop_requested():
+            lost = self.lost_bridge()
+            if lost is not None:
+                return lost
             for m in self.members:
-                for what, proc in (("daemon", m.daemon), ("bridge", m.bridge)):
-                    if proc is not None and proc.poll() is not None and (m.robot.name, what) not in reported:
-                        reported.add((m.robot.name, what))
-                        self.say(f"{m.robot.name}: {what} ended with exit code {proc.returncode}")
+                if m.daemon.poll() is not None and m.robot.name not in reported:
+                    reported.add(m.robot.name)
+                    self.say(f"{m.robot.name}: daemon ended with exit code {m.daemon.returncode}")
             if all(m.daemon.poll() is not None for m in self.members):
-                return
+                return None
             time.sleep(POLL_S)
+        return None
+
+    def lost_bridge(self) -> str | None:
+        """Why a robot is out of the cell's reach (its bridge ended, its daemon still runs), or None."""
+        for m in self.members:  # (a bridge ends with 0 when its daemon has closed its socket: it is ending)
+            if m.bridge is not None and m.bridge.poll() not in (None, 0) and m.daemon.poll() is None:
+                return (f"{m.robot.name}: its bridge ended with exit code {m.bridge.returncode} "
+                        f"(log {m.log.with_suffix('.bridge.log')}): the cell cannot e-stop it")
+        return None
 
     # -- stop --------------------------------------------------------------------------
     def stop(self) -> int:
@@ -126,8 +141,10 @@ class CellProcesses:
         for m in running:
             try:
                 request(m.socket, "stop", timeout=1.0)
-            except ControlSocketError:  # (still starting: it stops at SIGTERM)
-                m.daemon.send_signal(signal.SIGTERM)
+            except ControlSocketError:
+                if not m.answered:  # still starting: it stops at SIGTERM, before its drives are enabled
+                    m.daemon.send_signal(signal.SIGTERM)
+                # else it is ending already (`cell stop`): a signal now could cut its last steps short
         _wait_all([m.daemon for m in running], STOP_S)
         _wait_all([m.daemon for m in running if m.daemon.poll() is None], TERM_S, signal.SIGTERM)
         bridges = [m.bridge for m in self.members if m.bridge is not None]

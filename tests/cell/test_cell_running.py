@@ -7,7 +7,9 @@ cell: the check does not go through the path it checks."""
 from __future__ import annotations
 
 import json
+import re
 import signal
+import socket
 import threading
 import time
 
@@ -145,3 +147,17 @@ def test_up_with_robot_starts_only_that_robot_and_sigterm_stops_it(tmp_path):
         code, rest = running.finish(signal.SIGTERM)
     assert code == 0, rest
     assert not [p for p in running.pids if alive(p)]
+
+
+def test_a_bridge_that_cannot_start_stops_the_cell(tmp_path):
+    path = write_cell(tmp_path, 1)
+    port = load_cell(path, check_robots=False).robots[0].port
+    with socket.socket() as taken:  # something else listens on the bridge's endpoint
+        taken.bind(("127.0.0.1", port))
+        taken.listen()
+        out = rtctl("cell", "up", str(path), timeout=240)
+    assert out.returncode == 2, out.stdout + out.stderr
+    assert "r0: its bridge ended with exit code 6" in out.stderr and "the cell cannot e-stop it" in out.stderr
+    assert "Address already in use" in (tmp_path / "run" / "r0.bridge.log").read_text()
+    pids = [int(p) for p in re.findall(r"(?:daemon|bridge) pid (\d+)", out.stdout)]
+    assert len(pids) == 2 and not [p for p in pids if alive(p)]
