@@ -71,7 +71,8 @@ def _first_status(cell, procs, stop: list, timeout_s: float = BRIDGES_UP_S) -> d
     answered — they open their sessions while this one connects — or ``timeout_s``; a
     bridge that ends meanwhile is an error."""
     robots = [m.robot for m in procs.members]
-    session, _ = open_client_session(cell, robots, wait_s=timeout_s)
+    session, _ = open_client_session(cell, robots, wait_s=timeout_s,
+                                     give_up=lambda: bool(stop) or procs.lost_bridge() is not None)
     deadline = time.monotonic() + timeout_s
     try:
         while True:

@@ -52,12 +52,12 @@ def open_bridge_session(cell, robot):
                                      password=cell.auth.password(), verify=True))
 
 
-def open_client_session(cell, robots=None, *, credentials="cell", wait_s: float = 2.0):
+def open_client_session(cell, robots=None, *, credentials="cell", wait_s: float = 2.0, give_up=lambda: False):
     """A session that connects to the bridges of ``robots`` (default: all) — or, when the cell
     connects to a router (``[zenoh] connect``), to the router only; it listens nowhere.
     ``credentials``: "cell" (the cell's user and its password from the dictionary), a
     (user, password) pair, or None (none: every bridge refuses the link). Returns (session,
-    the number of bridges — or routers — connected within ``wait_s``)."""
+    the number of bridges — or routers — connected within ``wait_s``, or once ``give_up()``)."""
     import time
 
     zenoh = zenoh_module()
@@ -74,6 +74,6 @@ def open_client_session(cell, robots=None, *, credentials="cell", wait_s: float 
     deadline = time.monotonic() + wait_s
     while True:
         linked = len(list(session.info.routers_zid() if routed else session.info.peers_zid()))
-        if linked >= wanted or time.monotonic() >= deadline:
+        if linked >= wanted or time.monotonic() >= deadline or give_up():
             return session, linked
         time.sleep(0.01)
