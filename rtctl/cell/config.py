@@ -59,8 +59,9 @@ class ZenohSettings:
 
 @dataclass(frozen=True)
 class CellAuth:
-    user: str
+    user: str  # the cell's processes: may command and observe
     dictionary_file: Path  # "user:password" lines: Zenoh's usrpwd dictionary
+    observers: tuple  # users of the dictionary that may subscribe but not command
 
     def password(self) -> str:
         """This user's password, read from the dictionary when a session opens (never kept in
@@ -139,8 +140,12 @@ def _auth(t: Table, base: Path) -> CellAuth:
     if not dictionary.is_file():
         raise t.error("dictionary_file", f"an existing file of user:password lines (relative to the cell "
                                          f"file's folder); {dictionary} not found")
+    observers = t.raw("observers", [])
+    if not isinstance(observers, list) or not all(isinstance(o, str) and o and ":" not in o for o in observers) \
+            or user in observers:
+        raise t.error("observers", f"an array of user names (not the cell's user {user!r}), got {observers!r}")
     t.done()
-    return CellAuth(user, dictionary)
+    return CellAuth(user, dictionary, tuple(observers))
 
 
 def _robot(t: Table, base: Path, check_robots: bool, default_host: str):

@@ -7,7 +7,10 @@
   endpoints written in the cell file;
 * Zenoh's user/password authentication on every link: a bridge holds the dictionary and
   refuses a session whose user and password are not in it — its link is never opened, so
-  it can neither query a command nor subscribe to the state.
+  it can neither query a command nor subscribe to the state;
+* Zenoh's access control on every bridge, by user name: the cell's user may command and
+  observe, an ``observers`` user may only subscribe to the cell's keys, anyone else in the
+  dictionary nothing (the default is deny).
 """
 from __future__ import annotations
 
@@ -42,7 +45,26 @@ def session_config(cell, *, listen: tuple = (), connect: tuple = (), user: str |
         c.insert_json5("transport/auth/usrpwd/password", json.dumps(password))
     if verify:
         c.insert_json5("transport/auth/usrpwd/dictionary_file", json.dumps(str(cell.auth.dictionary_file)))
+        c.insert_json5("access_control", json.dumps(access_control(cell)))
     return c
+
+
+def access_control(cell) -> dict:
+    """A bridge's ACL. A rule's key expression must include the one a message carries: the
+    commands' ``rtctl/<cell>/*/cmd/<name>`` and the subscriptions' ``rtctl/<cell>/*/state``."""
+    everything, commands = f"rtctl/{cell.name}/**", f"rtctl/{cell.name}/*/cmd/**"
+    both = ["ingress", "egress"]
+    subjects = [{"id": "cell", "usernames": [cell.auth.user]}]
+    policies = [{"rules": ["observe", "command"], "subjects": ["cell"]}]
+    if cell.auth.observers:
+        subjects.append({"id": "observers", "usernames": list(cell.auth.observers)})
+        policies.append({"rules": ["observe"], "subjects": ["observers"]})
+    return {"enabled": True, "default_permission": "deny",
+            "rules": [{"id": "observe", "permission": "allow", "flows": both,
+                       "messages": ["put", "declare_subscriber"], "key_exprs": [everything]},
+                      {"id": "command", "permission": "allow", "flows": both,
+                       "messages": ["query", "declare_queryable", "reply"], "key_exprs": [commands]}],
+            "subjects": subjects, "policies": policies}
 
 
 def open_bridge_session(cell, robot):

@@ -16,6 +16,8 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 RUN_CONFIG = REPO / "configs" / "cell" / "puma560_cell_sim.toml"
 USER, PASSWORD = "tester", "pw-for-tests"
+OBSERVER, OBSERVER_PASSWORD = "viewer", "pw-viewer"  # may subscribe, not command
+OTHER, OTHER_PASSWORD = "other", "pw-other"  # in the dictionary, in no policy
 
 
 def free_port() -> int:
@@ -25,7 +27,7 @@ def free_port() -> int:
 
 
 def write_cell(folder: Path, n_robots: int = 2, *, extra: str = "", name: str = "testcell") -> Path:
-    (folder / "users").write_text(f"{USER}:{PASSWORD}\nother:x\n")
+    (folder / "users").write_text(f"{USER}:{PASSWORD}\n{OBSERVER}:{OBSERVER_PASSWORD}\n{OTHER}:{OTHER_PASSWORD}\n")
     robots = "".join(f'''
 [[robots]]
 name = "r{i}"
@@ -42,6 +44,7 @@ run_dir = "run"
 [auth]
 user = "{USER}"
 dictionary_file = "users"
+observers = ["{OBSERVER}"]
 {robots}{extra}''')
     return path
 

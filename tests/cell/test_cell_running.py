@@ -17,7 +17,8 @@ import pytest
 
 pytest.importorskip("zenoh", reason="the `cell` extra (eclipse-zenoh) is not installed: pip install 'rtctl[cell]'")
 
-from cell_helpers import PASSWORD, USER, RunningCell, alive, rtctl, write_cell  # noqa: E402
+from cell_helpers import (OBSERVER, OBSERVER_PASSWORD, OTHER, OTHER_PASSWORD, PASSWORD, USER,  # noqa: E402
+                          RunningCell, alive, rtctl, write_cell)
 from rtctl.cell.commands import query_all  # noqa: E402
 from rtctl.cell.config import load_cell  # noqa: E402
 from rtctl.cell.session import open_client_session  # noqa: E402
@@ -86,6 +87,35 @@ def test_a_session_without_the_cells_credentials_is_refused(cell, credentials):
     assert all(not r["ok"] and "no reply" in r["error"] for r in replies.values())
     for r in cfg.robots:
         assert daemon_status(cfg, r.name)["estopped"] is False  # the e-stop did not arrive
+
+
+def states_and_estop(cfg, credentials) -> tuple[int, int, dict]:
+    """(bridges linked, state messages received within 2 s, the replies to an e-stop) for a
+    session with ``credentials``."""
+    session, peers = open_client_session(cfg, credentials=credentials)
+    got = []
+    sub = session.declare_subscriber(cfg.key("*", "state"), lambda sample: got.append(1))
+    try:
+        deadline = time.monotonic() + 2.0
+        while time.monotonic() < deadline and len(got) < 10:
+            time.sleep(0.05)
+        replies = query_all(cfg, session, "estop", timeout_s=1.0)
+    finally:
+        sub.undeclare()
+        session.close()
+    return peers, len(got), replies
+
+
+def test_access_control_an_observer_sees_the_state_but_cannot_command(cell):
+    cfg, _ = cell
+    peers, states, replies = states_and_estop(cfg, (OBSERVER, OBSERVER_PASSWORD))
+    assert peers == len(cfg.robots) and states >= 10  # authenticated, and allowed to subscribe
+    assert all(not r["ok"] and "no reply" in r["error"] for r in replies.values())
+    peers, states, replies = states_and_estop(cfg, (OTHER, OTHER_PASSWORD))  # in the dictionary, no policy
+    assert peers == len(cfg.robots) and states == 0
+    assert all(not r["ok"] and "no reply" in r["error"] for r in replies.values())
+    for r in cfg.robots:
+        assert daemon_status(cfg, r.name)["estopped"] is False  # neither e-stop arrived
 
 
 def test_cell_estop_reaches_every_loop_and_reset_clears_it(cell):
