@@ -56,6 +56,7 @@ BAD = [  # (what to change in a valid two-robot file, the key path named, words 
      "is taken"),
     (lambda s: s.replace('port = ', 'port = 80 #', 1), "robots[0].port", "≥ 1024"),
     (lambda s: s.replace('sim = true', 'sim = true\nhost = "127.0.0.256"', 1), "robots[0].host", "IPv4"),
+    (lambda s: s.replace('observers = ["viewer"]', 'observers = ["tester"]'), "auth.observers", "not the cell's user"),
     (lambda s: s.replace('dictionary_file = "users"', 'dictionary_file = "nope"'), "auth.dictionary_file",
      "not found"),
     (lambda s: s.replace('config = "', 'config = "missing/', 1), "robots[0].config", "not found"),
