@@ -11,7 +11,7 @@ import signal
 import sys
 import time
 
-from rtctl.cell.config import load_cell
+from rtctl.cell.config import NAME, load_cell
 from rtctl.cell.session import open_client_session, zenoh_module
 from rtctl.errors import EXIT_FAULT, EXIT_OK, EXIT_SOCKET, ConfigError, RtctlError
 
@@ -22,6 +22,12 @@ BRIDGES_UP_S = 15.0
 def query_all(cell, session, name: str, fields: dict | None = None, timeout_s: float = QUERY_TIMEOUT_S) -> dict:
     """{robot: the daemon's reply (a dict with "ok")} for command ``name``, sent to every robot
     in one query; a robot that did not answer within ``timeout_s`` maps to ok False."""
+    if not isinstance(name, str) or not NAME.fullmatch(name):
+        raise ValueError(f"name: expected a command name (one Zenoh key chunk), got {name!r}")
+    if fields is not None and not isinstance(fields, dict):
+        raise ValueError(f"fields: expected a dict of the command's fields, got {type(fields).__name__}")
+    if not timeout_s > 0:
+        raise ValueError(f"timeout_s: expected > 0, got {timeout_s!r}")
     zenoh = zenoh_module()
     replies = session.get(cell.key("*", "cmd", name), target=zenoh.QueryTarget.ALL,
                           consolidation=zenoh.ConsolidationMode.NONE, timeout=timeout_s,

@@ -109,3 +109,13 @@ def test_forward_refuses_what_the_cell_does_not_forward_and_garbled_payloads():
     assert "not JSON" in bridge_module.forward("/x.sock", "move", b"{q:")["error"]
     assert "JSON object" in bridge_module.forward("/x.sock", "move", b"[1]")["error"]
     assert "no rtctl daemon" in bridge_module.forward("/nonexistent/x.sock", "status", None)["error"]
+
+
+def test_query_all_refuses_a_name_that_is_not_one_key_chunk(cell):
+    from rtctl.cell.commands import query_all
+
+    for bad in ("*", "cmd/estop", "", 3):
+        with pytest.raises(ValueError, match="name"):
+            query_all(cell, None, bad)
+    with pytest.raises(ValueError, match="fields"):
+        query_all(cell, None, "move", [1, 2])
