@@ -44,6 +44,17 @@ _FINITE = _number("a finite number", lambda x: True)
 _RATE = _number("a rate in Hz in [1, 100000]", lambda x: 1 <= x <= 1e5)
 
 
+def _count(text: str) -> int:
+    """An argparse type: an integer ≥ 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer ≥ 1, got {text!r}")
+    return value
+
+
 class _Version(argparse.Action):
     """``--version``: looked up only when asked (importlib.metadata costs 40 ms every command)."""
 
@@ -213,7 +224,7 @@ def _parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="measure performance on this machine (prints a table, writes JSON)")
     bench.add_argument("what", choices=("dynamics", "loop", "loop-timing", "live", "can", "control", "telemetry",
                                         "control-socket", "safety", "trajectory", "leg", "soak", "guard", "grabber",
-                                        "switching", "plants"),
+                                        "switching", "plants", "cell"),
                        help="dynamics: model algorithms vs Pinocchio; loop: the full stack on the embedded "
                             "PUMA 560; loop-timing: an empty loop (like cyclictest); live: the loop with and without "
                             "the Foxglove live view and one viewer, side by side; can: codec and transports; "
@@ -225,20 +236,47 @@ def _parser() -> argparse.ArgumentParser:
                             "(against OMPL's RRT-Connect when the `bench` extra is installed); "
                             "grabber: framegrabber driver, unpacking, marker, camera simulator; "
                             "switching: the loop untouched, then with 10 controller switches or gain sets per second; "
-                            "plants: one period of rtctl's plant and of MuJoCo's")
+                            "plants: one period of rtctl's plant and of MuJoCo's; "
+                            "cell: cell-wide e-stop latency over Zenoh with 1 and 2 robots, state messages per "
+                            "second, the loops' cost (the `cell` extra)")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
     bench.add_argument("--config", default=None, help="run configuration for `bench loop`/`live` (default: the shipped one)")
     bench.add_argument("--rate", type=_RATE, default=1000.0, help="loop rate for `bench loop` (Hz)")
     bench.add_argument("--seconds", type=_SECONDS, default=10.0,
                        help="duration for `bench loop` and `bench switching` (s; `live`: per run)")
+    bench.add_argument("--trials", type=_count, default=100, metavar="N",
+                       help="`bench cell`: cell-wide e-stops per cell size (1 and 2 robots; default 100)")
     bench.add_argument("--minutes", type=_SECONDS, default=10.0,
                        help="duration for `bench soak` (default 10; --config: another HIL configuration)")
 
     sub.add_parser("doctor", help="report this machine's real-time readiness and what to change")
 
+    _add_cell_parser(sub)
+
     _add_leg_parser(sub)
     return p
+
+
+def _add_cell_parser(sub) -> None:
+    cell = sub.add_parser("cell", help="several robots as one cell over Zenoh: start, status, stop, e-stop, reset "
+                                       "(needs the `cell` extra; docs/cell.md)")
+    cellsub = cell.add_subparsers(dest="cell_command", required=True, metavar="ACTION")
+    for name, text in (("up", "start every daemon of the cell and one Zenoh bridge per robot, show their status, "
+                              "and stop them all on Ctrl-C or SIGTERM (or once every daemon has ended)"),
+                       ("status", "every robot's status, through Zenoh"),
+                       ("stop", "stop every robot's daemon cleanly"),
+                       ("estop", "e-stop every robot of the cell: damping, then drives off; the daemons stay up"),
+                       ("reset", "clear every robot's latched faults whose cause is gone")):
+        p = cellsub.add_parser(name, help=text, description=text)
+        p.add_argument("cellfile", help="cell file (TOML), e.g. configs/cell/two_puma_sim.toml")
+        if name == "up":
+            p.add_argument("--start-timeout", type=_SECONDS, default=300.0, metavar="S",
+                           help="give up when a daemon does not answer within S seconds (a machine's first run "
+                                "compiles the kernels; default 300)")
+            p.add_argument("--robot", action="append", metavar="NAME",
+                           help="start only this robot (repeatable; default: all): a cell on several hosts "
+                                "starts each host's robots there")
 
 
 LEG_TABLE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "configs", "leg", "table3.toml")
@@ -339,6 +377,10 @@ def _dispatch(args) -> int:
         from rtctl.logic.cli import leg_command
 
         return leg_command(args)
+    if args.command == "cell":
+        from rtctl.cell.commands import cell_command
+
+        return cell_command(args)
     if args.command == "doctor":
         from rtctl.commands import doctor
 

@@ -158,6 +158,10 @@ def bench(args) -> int:
         from rtctl.bench.plants import bench_plants as run, format_table
 
         result = run(robot)
+    elif args.what == "cell":
+        from rtctl.bench.cell import bench_cell as run, format_table
+
+        result = run(args.config, trials=args.trials)
     elif args.what == "switching":
         from rtctl.bench.switching import bench_switching as run, format_table
 

@@ -417,6 +417,9 @@ class Daemon:
                    "stop_reason": self.stop_reason, "timing": self.ticker.summary(),
                    "tracking_error_rad": self.tick.tracking_summary(), "safety": self.safety.summary(),
                    "operator": {"events": self.live.events},
+                   # tick k began at tick0 + k·period/realtime_factor on CLOCK_MONOTONIC: another
+                   # process on this machine can place the safety events' ticks on its own clock
+                   "clock": {"tick0_monotonic_ns": self.ticker.deadline_ns(0) if self.cfg.loop.realtime_factor else None},
                    "devices": {d.name: d.diagnostics() for d in self.rt.all_devices}}
         if self.recorder is not None:
             summary["telemetry"] = {"path": str(self.recorder.path), "rows": self.recorder.rows,

@@ -62,12 +62,12 @@ def load_guard(run: Table | None, robot_file: Path, model) -> GuardConfig | None
     if robot is not None:
         guard_t, unit = robot
         margin = guard_t.float("margin", DEFAULT_MARGIN / _angle(unit), min=0.0) * _angle(unit)
-        zones += _zones(guard_t, model, _scale(model, unit))
+        zones += _zones(guard_t, model, unit_scale(model, unit))
         guard_t.done()
     settings = {}
     if run is not None:
         unit = run.str("unit", "rad", choices=("deg", "rad"))
-        scale, ang = _scale(model, unit), _angle(unit)
+        scale, ang = unit_scale(model, unit), _angle(unit)
         margin = run.float("margin", margin / ang, min=0.0) * ang
         settings = {
             "guard_margin": run.float("guard_margin", 0.2 * margin / ang, min=0.0) * ang,
@@ -107,7 +107,7 @@ def _angle(unit: str) -> float:
     return np.pi / 180.0 if unit == "deg" else 1.0
 
 
-def _scale(model, unit: str) -> np.ndarray:
+def unit_scale(model, unit: str) -> np.ndarray:
     """Per joint: the factor from the file's unit to rad (revolute) or m (prismatic)."""
     return np.where(model.joint_types == 0, _angle(unit), 1.0)
 
@@ -132,11 +132,11 @@ def _zones(t: Table, model, scale) -> list[tuple[Zone, Table]]:
         note = z.str("note", "")
         parts_t = z.tables("parts", None)
         if parts_t is None:
-            parts = [_part(z, name, model, scale)]
+            parts = [zone_part(z, name, model, scale)]
         else:
             if not parts_t:
                 raise z.error("parts", f"zone {name!r}: at least one [[…parts]] table")
-            parts = [_part(p, name, model, scale) for p in parts_t]
+            parts = [zone_part(p, name, model, scale) for p in parts_t]
             for p in parts_t:
                 p.done()
         z.done()
@@ -147,7 +147,10 @@ def _zones(t: Table, model, scale) -> list[tuple[Zone, Table]]:
     return out
 
 
-def _part(t: Table, zone: str, model, scale):
+def zone_part(t: Table, zone: str, model, scale):
+    """One part of a zone: ``joints`` and a ``polygon`` (two joints) or a ``lo``/``hi`` box,
+    in the file's unit (``scale``: :func:`unit_scale`); also a shared zone's region of one
+    robot (:mod:`rtctl.cell.config`)."""
     joints = _joints(t, zone, model)
     has_polygon, has_box = t.has("polygon"), t.has("lo") or t.has("hi")
     if has_polygon == has_box:

@@ -1,0 +1,1 @@
+"""The cell: several robots' daemons coordinated over Zenoh (docs/cell.md)."""
