@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drivers.protocols.leg_board import DECREASE, INCREASE, RELEASE
-from hil_sim.leg_plant import D, LegParams
+from hil_sim.leg_plant import D, LegParams, LegPlant
 from hil_sim.mujoco_plant import import_mujoco
 
 G = 9.81
@@ -251,14 +251,7 @@ class MujocoLegPlant:
     def _contacts(self) -> None:
         np.multiply(self._touch, 1.0 / self.weight, out=self.loads)
 
-    def measure(self) -> None:
-        """The sensor channels: true values plus white noise."""
-        ch = self.channels
-        ch[:3] = self.q
-        ch[3:] = self.loads
-        self.rng.standard_normal(out=self._noise)
-        self._noise *= self._noise_scale
-        ch += self._noise
+    measure = LegPlant.measure  # the same sensor channels: true values plus white noise
 
     # -- one period -------------------------------------------------------------------------
     def step(self, dt: float) -> None:

@@ -105,9 +105,10 @@ class Tick:
                 except Exception as e:  # the safety stage engages the fallback this same tick
                     controller_ok = False
                     self.controller_error = f"{c.name}: {type(e).__name__}: {e}"
+        if starting:
+            self.starting = ()
         if self.blend.left:
             self.blend.apply(command.tau_ff, ticker.due)
-            self.starting = ()
         ticker.mark(UPDATE)
 
         self.verdict = self.safety.check(t, ticker.tick, state, self.statuses, command, controller_ok,

@@ -87,7 +87,7 @@ def test_a_controller_that_runs_every_few_ticks_is_blended_from_the_torque_it_ho
         assert tau[0] == pytest.approx(4.0 + 6.0 * math.exp(-k * dt / BLEND_TIME_S), rel=1e-12)
 
 
-def test_a_controller_started_between_its_updates_is_blended_from_its_first_update(write_config):
+def test_a_controller_started_between_its_updates_is_blended_from_its_first_update():
     """The tick updates a controller at the tick after its switch whatever its divisor: its first
     torque is the one the offset is taken against (not the old controller's left in the command)."""
     dt = 1e-3
