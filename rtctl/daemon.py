@@ -384,7 +384,7 @@ class Daemon:
         schema = {"t": ((), "f8"), "q": (n, "f8"), "qd": (n, "f8"), "q_des": (n, "f8"), "qd_des": (n, "f8"),
                   "tau": (n, "f8"), "phase_ns": (len(DAEMON_PHASES), "i8")}
         sources = {"q": rt.state.position, "qd": rt.state.velocity, "q_des": rt.ref.q, "qd_des": rt.ref.qd,
-                   "tau": rt.command.tau_ff}
+                   "tau": rt.command.tau_ff, "phase_ns": self.ticker.phase_ns}
         for c in rt.configured:
             for name, arr in c.internals.items():
                 col = name if name not in schema else f"{c.name}.{name}"
@@ -409,7 +409,6 @@ class Daemon:
         for name, arr in sources.items():
             rec.bind(name, arr)
         self.tick.recorder = rec
-        self.tick.phase_row = rec.row["phase_ns"]
         return rec
 
     def _finish(self) -> None:

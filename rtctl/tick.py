@@ -24,7 +24,7 @@ from rtctl.hal import Status
 from rtctl.safety import Verdict
 from rtctl.safety.faults import device_reason
 from rtctl.switching import Blend
-from rtctl.timing import READ, RECORD, SAFETY, UPDATE, WRITE
+from rtctl.timing import READ, RECORD, SAFETY, UPDATE, WRITE, LoopStats
 
 OK = int(Status.OK)
 
@@ -62,7 +62,6 @@ class Tick:
         self.err_max = np.zeros(n)
         self.samples = 0
         self.tracks = any(c.follows_reference for c in runtime.controllers)  # else no tracking error means anything
-        self.phase_row = None  # telemetry view of the phase times, when recording
         self.blend = Blend(n, ticker.period_ns * 1e-9)
         self.starting = ()  # controllers started by a switch: they update at the next tick whatever their divisor
 
@@ -131,8 +130,7 @@ class Tick:
             self._track()
         if self.recorder is not None:
             self.recorder.row["t"][()] = t
-            self.phase_row[:] = ticker.phase_ns  # the previous tick's phases (this one is still running)
-            self.recorder.record()
+            self.recorder.record()  # (its phase_ns: the previous tick's, this one is still running)
         ticker.mark(RECORD)
         return self.verdict
 
@@ -173,9 +171,10 @@ class Tick:
         self.samples += 1
 
     def warm_up(self) -> None:
-        """Load the tick's own kernel (on scratch arrays)."""
+        """Load the tick's own kernels, its tracking and its ticker's statistics (on scratch)."""
         n = len(self.err_sq)
         track(np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n))
+        LoopStats(self.ticker.phases).record(0, [0] * len(self.ticker.phases), 0)
 
     def tracking_summary(self) -> dict | None:
         """RMS and max |q − q_d| per joint while the controllers were in charge (None when no

@@ -7,6 +7,8 @@ those arguments (reset to the captured values before every batch, so a plant ste
 adaptation law does not drift) and sums ``calls per tick × median µs per call``: the compiled
 floor under the tick — what it would cost with no Python between the kernels. Kernels called
 by other kernels are part of their caller's time; numpy's own functions are not counted.
+Enter it only after the run's kernels are compiled (a first run): a kernel compiled while the
+census is in place would see a wrapper where its callee should be, and not compile.
 """
 from __future__ import annotations
 

@@ -8,8 +8,8 @@ order statistic (``numpy.percentile(..., method="inverted_cdf")``); the maximum 
 Values are clamped to ``2^40`` ns (18 min). A one-hour run at 1 kHz costs the same
 memory as a one-second one: 7 rows × 1152 counters.
 
-``record`` is plain Python over a preallocated list (no numpy scalar indexing, no
-allocation of containers): about 1.2 µs per tick, measured by ``rtctl.bench.loop_timing``.
+The loop records a tick in one compiled call from its phase marks (:mod:`rtctl.timing.record`),
+with no allocation: ``rtctl bench loop-timing`` measures its cost.
 """
 from __future__ import annotations
 
@@ -67,8 +67,11 @@ class LoopStats:
     def __init__(self, phases=("read", "update", "safety", "write", "record")):
         self.phases = tuple(phases)
         self.rows = ("wake_lateness", "tick") + self.phases
-        self._counts = [0] * (N_BUCKETS * len(self.rows))  # row r at offset r·N_BUCKETS
-        self._max = [0] * len(self.rows)
+        from rtctl.timing.record import record_tick  # (numba: not before a command needs it)
+
+        self._record = record_tick
+        self._counts = np.zeros(N_BUCKETS * len(self.rows), dtype=np.int64)  # row r at offset r·N_BUCKETS
+        self._max = np.zeros(len(self.rows), dtype=np.int64)
         self.ticks = 0
         self.overruns = 0
         self.skipped_periods = 0
@@ -76,37 +79,19 @@ class LoopStats:
 
     def record(self, lateness_ns: int | None, phase_ns, compute_ns: int) -> None:
         """Add one tick. ``lateness_ns`` is None when nothing waited (lock-step mode);
-        ``phase_ns`` is a sequence of ints, one per phase."""
-        self.ticks += 1
-        if lateness_ns is not None:
-            self._add(0, lateness_ns)
-        self._add(1, compute_ns)
-        counts, mx = self._counts, self._max
-        row = 2
-        for x in phase_ns:  # _add inlined: a call per phase would cost a third more
-            if x > mx[row]:
-                mx[row] = x
-            if x < _LINEAR:
-                i = x if x > 0 else 0
-            else:
-                if x > MAX_VALUE_NS:
-                    x = MAX_VALUE_NS
-                s = x.bit_length() - SUB_BITS - 1
-                i = (s << SUB_BITS) + (x >> s)
-            counts[row * N_BUCKETS + i] += 1
-            row += 1
+        ``phase_ns`` is a sequence of ints, one per phase. (The loop itself records through
+        :meth:`record_marks`, from its phase marks and with no allocation.)"""
+        phase_ns = np.asarray(phase_ns, dtype=np.int64)
+        self.record_marks(np.cumsum(phase_ns), 0, int(compute_ns), lateness_ns, np.empty_like(phase_ns))
 
-    def _add(self, row: int, x: int) -> None:
-        if x > self._max[row]:
-            self._max[row] = x
-        if x < _LINEAR:
-            i = x if x > 0 else 0
-        else:
-            if x > MAX_VALUE_NS:
-                x = MAX_VALUE_NS
-            s = x.bit_length() - SUB_BITS - 1
-            i = (s << SUB_BITS) + (x >> s)
-        self._counts[row * N_BUCKETS + i] += 1
+    def record_marks(self, stamps, wake_ns: int, end_ns: int, lateness_ns: int | None, phase_ns) -> None:
+        """Add one tick from its marks: ``stamps`` (int64 array, one per phase) are the clock at
+        each phase's end, ``phase_ns`` receives the phase times (0 for a phase whose stamp is
+        older than ``wake_ns``: not marked this tick). One compiled call
+        (:func:`rtctl.timing.record.record_tick`)."""
+        self.ticks += 1
+        self._record(self._counts, self._max, stamps, wake_ns, end_ns,
+                     0 if lateness_ns is None else lateness_ns, lateness_ns is not None, phase_ns)
 
     def record_overrun(self, skipped: int, consecutive: int) -> None:
         self.overruns += 1
@@ -117,7 +102,7 @@ class LoopStats:
     def percentiles_ns(self, row: str) -> dict:
         """count, p50, p99, p99_9, max of one row, in ns (None when the row is empty)."""
         r = self.rows.index(row)
-        return percentiles_of(self._counts[r * N_BUCKETS:(r + 1) * N_BUCKETS], self._max[r])
+        return percentiles_of(self._counts[r * N_BUCKETS:(r + 1) * N_BUCKETS], int(self._max[r]))
 
     def copy_counts(self, row: str, out: np.ndarray) -> None:
         """The row's histogram (N_BUCKETS counts) into ``out``: a snapshot to diff later."""

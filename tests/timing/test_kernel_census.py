@@ -15,6 +15,7 @@ PUMA = Path(__file__).resolve().parents[2] / "configs" / "robots" / "puma560.tom
 def test_census_counts_python_calls_times_them_on_copies_and_unpatches():
     plant = Plant(load_robot(PUMA), q0=np.full(6, 0.3))
     plant.tau_cmd[:] = 1.0
+    plant.step(1e-3)  # compiled (or loaded) first: numba would type a patched global as a Python object
     original = plant_module.plant_step
     with KernelCensus() as census:
         assert plant_module.plant_step is not original

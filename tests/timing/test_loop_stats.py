@@ -106,3 +106,24 @@ def test_copy_counts_takes_exactly_one_rows_histogram():
     assert out.sum() == 4 and out[bucket_index(50_000)] == 2 and out[bucket_index(2_000_000)] == 1
     stats.copy_counts("a", out)
     assert out.sum() == 4 and out[bucket_index(25_000)] == 2
+
+
+@given(st.lists(st.integers(min_value=-5, max_value=4 * MAX_VALUE_NS), min_size=3, max_size=3))
+def test_the_compiled_record_puts_each_value_in_bucket_index_s_bucket(values):
+    """record_tick (compiled) against the Python bucket_index, values from negative to past the clamp."""
+    lateness, compute, phase = values
+    s = LoopStats(phases=("a",))
+    s.record(lateness, [phase], compute)
+    for row, x in (("wake_lateness", lateness), ("tick", compute), ("a", phase)):
+        r = s.rows.index(row)
+        counts = s._counts[r * N_BUCKETS:(r + 1) * N_BUCKETS]
+        assert counts.sum() == 1 and counts[bucket_index(max(x, 0))] == 1
+        assert s._max[r] == max(x, 0) if x <= MAX_VALUE_NS else s._max[r] == x
+
+
+def test_phase_times_come_from_the_marks_and_an_unmarked_phase_counts_zero():
+    s = LoopStats(phases=("a", "b", "c"))
+    phase_ns = np.zeros(3, dtype=np.int64)
+    s.record_marks(np.array([1_500, 700, 4_000]), 1_000, 4_200, None, phase_ns)  # b's stamp predates the wake
+    assert phase_ns.tolist() == [500, 0, 2_500]
+    assert s.percentiles_ns("tick")["max"] == 3_200 and s.percentiles_ns("wake_lateness")["count"] == 0
