@@ -238,6 +238,8 @@ class Daemon:
             log.info("stopped before start", reason=self.stop_reason)
             return False
         compiling.finish()
+        if self.recorder is not None:  # (started long before: it is normally waiting already)
+            self.recorder.wait_ready()
         self._apply_rt()
         self.moves.warm()  # it loads the planners' kernels from the cache just filled
         try:

@@ -3,8 +3,8 @@
 :class:`KernelCensus` replaces every numba dispatcher reachable as a module global of rtctl,
 hil_sim or drivers by a counting wrapper that also keeps a copy of the last arguments it saw.
 After a run under the census, :meth:`KernelCensus.cost_per_tick` calls each kernel directly on
-those arguments (reset to the captured values before every batch, so a plant step or an
-adaptation law does not drift) and sums ``calls per tick × median µs per call``: the compiled
+copies of the inputs it had at a few spread-out calls (reset before every call, so a plant
+step or an adaptation law does not drift) and sums ``calls per tick × median µs per call``: the compiled
 floor under the tick — what it would cost with no Python between the kernels. Kernels called
 by other kernels are part of their caller's time; numpy's own functions are not counted.
 Enter it only after the run's kernels are compiled (a first run): a kernel compiled while the
@@ -37,16 +37,31 @@ def _restore(work, saved) -> None:
             _restore(w, s)
 
 
+SNAPSHOT_EVERY = 97  # calls between two copies of a kernel's inputs (prime: no lock-step with a divisor)
+SNAPSHOTS = 8
+
+
 class _Counted:
-    __slots__ = ("kernel", "calls", "args")
+    __slots__ = ("kernel", "calls", "args", "snapshots")
 
     def __init__(self, kernel):
-        self.kernel, self.calls, self.args = kernel, 0, None
+        self.kernel, self.calls, self.args, self.snapshots = kernel, 0, None, []
 
     def __call__(self, *args):  # the kernels are called positionally
         self.calls += 1
         self.args = args  # copied once, at the end of the run (a copy per call would be the run's cost)
+        if self.calls % SNAPSHOT_EVERY == 0 and len(self.snapshots) < SNAPSHOTS:
+            self.snapshots.append(_copy(args))  # its inputs as the run gave them, at spread-out calls
         return self.kernel(*args)
+
+
+def _timer_overhead_ns() -> float:
+    """Median of two back-to-back perf_counter_ns reads."""
+    deltas = []
+    for _ in range(1000):
+        t0 = time.perf_counter_ns()
+        deltas.append(time.perf_counter_ns() - t0)
+    return float(np.median(deltas))
 
 
 class KernelCensus:
@@ -72,25 +87,32 @@ class KernelCensus:
         for c in self.counted.values():  # arguments as they stood after the last call: a tick's arrays
             c.args = None if c.args is None else _copy(c.args)
 
-    def cost_per_tick(self, ticks: int, batch: int = 20, batches: int = 50) -> dict:
+    def cost_per_tick(self, ticks: int, samples: int = 400) -> dict:
         """{"kernels": {name: {"calls_per_tick", "us_per_call", "us_per_tick"}}, "total_us"} for the
-        kernels called at least once every 100 ticks (fewer calls are start-up and warm-up)."""
+        kernels called at least once every 100 ticks (fewer calls are start-up and warm-up).
+
+        Each call is timed alone on the inputs the run gave it at one of up to ``SNAPSHOTS``
+        spread-out calls (restored before every call: an adaptation law repeated on its own output
+        drifts somewhere the run never goes); the median over all of them, less the timer's own
+        cost, is the kernel's µs per call."""
         rows, total = {}, 0.0
+        timer = _timer_overhead_ns()
         for c in self.counted.values():
             per_tick = c.calls / max(ticks, 1)
             if c.args is None or c.calls * 100 < ticks:
                 continue
-            work = _copy(c.args)
+            inputs = c.snapshots or [_copy(c.args)]
+            work = [_copy(a) for a in inputs]
             fn = c.kernel
-            fn(*work)
-            samples = []
-            for _ in range(batches):
-                _restore(work, c.args)
+            fn(*work[0])
+            times = []
+            for k in range(samples):
+                args, saved = work[k % len(work)], inputs[k % len(work)]
+                _restore(args, saved)
                 t0 = time.perf_counter_ns()
-                for _ in range(batch):
-                    fn(*work)
-                samples.append((time.perf_counter_ns() - t0) / batch / 1e3)
-            us = float(np.median(samples))
+                fn(*args)
+                times.append(time.perf_counter_ns() - t0 - timer)
+            us = max(float(np.median(times)), 0.0) / 1e3
             rows[fn.py_func.__qualname__] = {"calls_per_tick": per_tick, "us_per_call": us,
                                              "us_per_tick": per_tick * us}
             total += per_tick * us

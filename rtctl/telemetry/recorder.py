@@ -38,7 +38,7 @@ import msgpack
 import numpy as np
 
 from rtctl.errors import ResourceBusyError, TelemetryError
-from rtctl.telemetry.ring import DROPPED, FAILED, RELEASED, STORED, Ring
+from rtctl.telemetry.ring import DROPPED, FAILED, READY, RELEASED, STORED, Ring
 from rtctl.telemetry.schema import FORMAT, VERSION, normalise_schema, row_dtype, schema_to_wire
 from rtctl.telemetry.ring_reader import close_message, spawn_ring_reader
 
@@ -137,6 +137,18 @@ class Recorder:
             os.close(read_fd)
         os.set_blocking(write_fd, False)  # a wake-up must never block the tick
         return proc, write_fd
+
+    def wait_ready(self, timeout_s: float = 30.0) -> None:
+        """Return once the writer process is attached to the ring and waiting for rows; a
+        writer that exits first, or is not ready within ``timeout_s``, is a TelemetryError."""
+        end = time.monotonic() + timeout_s
+        while not self._ctl[READY]:
+            code = self._proc.poll()
+            if code is not None:
+                raise TelemetryError(f"the telemetry writer for {self.path} exited ({code}) before it started")
+            if time.monotonic() > end:
+                raise TelemetryError(f"the telemetry writer for {self.path} did not start within {timeout_s:g} s")
+            time.sleep(_WAIT_POLL_S)
 
     @property
     def ring_fd(self) -> int:

@@ -11,6 +11,8 @@ the row dtype. Counters, each written by one side only:
 * ``RELEASED`` (writer): full blocks written to the file; their memory may be reused.
 * ``FAILED`` (writer): 0 while it writes; the errno of the write that failed (ENOSPC, EIO …)
   once it cannot write any more, so the loop learns of it within a tick.
+* ``READY`` (writer): 1 once it is attached and waiting for blocks; the loop starts only then
+  (a writer still starting would stall a lock-step run within its first few thousand rows).
 
 One monotonic counter per side (rather than "block full" flags) means a loop process that
 dies between any two statements leaves a consistent state: the writer can still save every
@@ -24,7 +26,7 @@ import tempfile
 
 import numpy as np
 
-STORED, DROPPED, RELEASED, FAILED = 0, 1, 2, 3
+STORED, DROPPED, RELEASED, FAILED, READY = 0, 1, 2, 3, 4
 CTL_BYTES = 64
 
 

@@ -27,7 +27,7 @@ import time
 
 import msgpack
 
-from rtctl.telemetry.ring import DROPPED, FAILED, RELEASED, STORED, Ring
+from rtctl.telemetry.ring import DROPPED, FAILED, READY, RELEASED, STORED, Ring
 from rtctl.telemetry.ring_reader import detach_from_loop, read_summary
 from rtctl.telemetry.schema import row_dtype, schema_from_wire
 
@@ -93,8 +93,10 @@ def main(argv=None) -> int:
     detach_from_loop()
     schema = schema_from_wire(config["schema"])
     ring = Ring(config["ring_fd"], row_dtype(schema), config["block_rows"], config["n_blocks"])
+    writer = Writer(ring, config["file_fd"], config["pipe_fd"])
+    ring.ctl[READY] = 1
     try:
-        Writer(ring, config["file_fd"], config["pipe_fd"]).run()
+        writer.run()
     except OSError as e:
         ring.ctl[FAILED] = e.errno or errno.EIO
         print(f"rtctl telemetry writer: {e}", file=sys.stderr)
