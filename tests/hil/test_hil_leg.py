@@ -22,11 +22,12 @@ def leg_variant(tmp_path):
 
 @pytest.mark.hil
 @pytest.mark.slow
-def test_the_leg_walks_over_the_pty_for_20_cycles(hil_sim, tmp_path):
+@pytest.mark.parametrize("cycles", [5, pytest.param(20, marks=pytest.mark.soak)])
+def test_the_leg_walks_over_the_pty_for_its_cycles(hil_sim, tmp_path, cycles):
     config = leg_variant(tmp_path)
     sim = hil_sim(config)
     assert sim.info["transport"] == "serial" and "HIL_SIM_TTY" in sim.info["env"]
-    code, summary, tel, err = run(config, tmp_path, sim.env(), duration=45.0, timeout=240)
+    code, summary, tel, err = run(config, tmp_path, sim.env(), duration=2.25 * cycles, timeout=240)
     exit_event = sim.stop()
     seq = states(tel)
     good = 0
@@ -37,7 +38,7 @@ def test_the_leg_walks_over_the_pty_for_20_cycles(hil_sim, tmp_path):
     assert board["crc_errors"] == 0 and board["frames"] >= exit_event["commands"] - 5
     with unless_stalled(summary):  # a stalled machine can trip the overrun limit before 20 cycles
         assert code == 0, err[-2000:]
-        assert (len(seq) - 1) // 8 >= 20, f"{len(seq)} states, plant time {exit_event['plant_time']:.1f} s"
+        assert (len(seq) - 1) // 8 >= cycles, f"{len(seq)} states, plant time {exit_event['plant_time']:.1f} s"
 
 
 @pytest.mark.hil

@@ -20,11 +20,12 @@ def leg_hil_guard(tmp_path):
 
 @pytest.mark.hil
 @pytest.mark.slow
-def test_the_mujoco_leg_walks_over_the_pty(hil_sim, tmp_path):
+@pytest.mark.parametrize("cycles", [5, pytest.param(20, marks=pytest.mark.soak)])
+def test_the_mujoco_leg_walks_over_the_pty(hil_sim, tmp_path, cycles):
     config = leg_hil_guard(tmp_path)
     sim = hil_sim(config, "--engine", "mujoco")
     assert sim.info["transport"] == "serial"
-    code, summary, tel, err = run(config, tmp_path, sim.env(), duration=30.0, timeout=240)
+    code, summary, tel, err = run(config, tmp_path, sim.env(), duration=1.5 * cycles, timeout=240)
     exit_event = sim.stop()
     assert exit_event["commands"] > 0 and exit_event["plant_time"] > 0, exit_event  # the pty's board did walk
     faults = summary["safety"]["faults"]
@@ -38,6 +39,6 @@ def test_the_mujoco_leg_walks_over_the_pty(hil_sim, tmp_path):
     assert good == len(seq), seq  # whatever the machine does: never a wrong state while it walks
     with unless_stalled(summary):
         assert code == 0, err[-2000:]
-        assert (len(seq) - 1) // 8 >= 20, f"{len(seq)} states, plant time {exit_event['plant_time']:.1f} s"
+        assert (len(seq) - 1) // 8 >= cycles, f"{len(seq)} states, plant time {exit_event['plant_time']:.1f} s"
     print(f"\nMuJoCo leg over the pty: {len(seq)} states, {(len(seq) - 1) // 8} complete cycles, plant time "
           f"{exit_event['plant_time']:.1f} s, {exit_event['commands']} commands, no missing or extra state")

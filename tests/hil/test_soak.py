@@ -8,7 +8,7 @@ import pytest
 
 from hil_helpers import VmStall, rtctl
 
-pytestmark = pytest.mark.hil
+pytestmark = [pytest.mark.hil, pytest.mark.soak]
 
 
 def test_a_30_s_soak_holds_the_four_facts(tmp_path):
