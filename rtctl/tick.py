@@ -171,7 +171,8 @@ class Tick:
         self.samples += 1
 
     def warm_up(self) -> None:
-        """Load the tick's own kernels, its tracking and its ticker's statistics (on scratch)."""
+        """Load the tick's own kernels, its tracking and its ticker's statistics (on scratch:
+        compiled here with the run's other kernels, so that ``Ticker.start`` only loads it)."""
         n = len(self.err_sq)
         track(np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n))
         LoopStats(self.ticker.phases).record(0, [0] * len(self.ticker.phases), 0)

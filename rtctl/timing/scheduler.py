@@ -114,7 +114,9 @@ class Ticker:
         return self._start_ns + k * self._grid_den // self._grid_num
 
     def start(self) -> None:
-        """Anchor the grid: tick 0 is due now."""
+        """Anchor the grid: tick 0 is due now. (First the statistics' kernel is loaded, on a
+        scratch record: the first tick must not pay for it.)"""
+        LoopStats(self.phases).record(0, [0] * len(self.phases), 0)
         self._start_ns = self._wake_ns = self._end_ns = self.clock.now_ns()
         self._next_tick = 0
         self.busy.start(self._start_ns)
