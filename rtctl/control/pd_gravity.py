@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from rtctl.compiled import kernel
-from rtctl.control.base import Controller
+from rtctl.control.base import Controller, emit_owned
 from rtctl.control.gains import per_joint
 from rtctl.control.tunable import Tunable
 from rtctl.model.dynamics import Data, model_arrays
@@ -18,11 +18,13 @@ from rtctl.model.rnea import rnea_kernel
 
 
 @kernel
-def pd_gravity_kernel(joint, geom, params, gravity, X, body, zero, q, qd, q_d, qd_d, kp, kd, g, tau):
-    """G(q) into ``g`` (RNEA at q̇ = q̈ = 0), then τ = G − K_P (q − q_d) − K_D (q̇ − q̇_d)."""
+def pd_gravity_kernel(joint, geom, params, gravity, X, body, zero, q, qd, ref, kp, kd, g, tau, mask, tau_out):
+    """G(q) into ``g`` (RNEA at q̇ = q̈ = 0), then τ = G − K_P (q − q_d) − K_D (q̇ − q̇_d) with
+    q_d, q̇_d the rows 0, 1 of ``ref``, and the owned joints' τ into ``tau_out``."""
     rnea_kernel(joint, geom, params, gravity, X, body, q, zero, zero, g)
     for i in range(q.shape[0]):
-        tau[i] = g[i] + kp[i] * (q_d[i] - q[i]) + kd[i] * (qd_d[i] - qd[i])
+        tau[i] = g[i] + kp[i] * (ref[0, i] - q[i]) + kd[i] * (ref[1, i] - qd[i])
+    emit_owned(mask, tau, tau_out)
 
 
 class PDGravity(Controller):
@@ -51,5 +53,4 @@ class PDGravity(Controller):
     def update(self, t, state, ref, command):
         a, d = self.arrays, self.data
         pd_gravity_kernel(a.joint, a.geom, a.params, a.gravity, d.X, d.body, d.zero, state.position,
-                          state.velocity, ref.q, ref.qd, self.kp, self.kd, self.g, self.tau)
-        self.emit(command.tau_ff, self.tau)
+                          state.velocity, ref.packed, self.kp, self.kd, self.g, self.tau, self.mask, command.tau_ff)
