@@ -159,8 +159,10 @@ def test_counted_tick_gives_the_compiled_kernels_outputs(law, random_chain, puma
 def test_bench_table_formats(puma):
     row = {"robot": "x", "n": 2, "cstar": {"tick_us": 1.0, "compiled_us": 0.5, "mul": 1, "add": 2},
            "classic": {"tick_us": 2.0, "compiled_us": 1.0, "mul": 3, "add": 4}, "pinocchio_tau_us": None,
-           "cstar_over_classic": 0.5, "cstar_over_classic_compiled": 0.5, "cstar_over_pinocchio": None}
+           "cstar_over_classic": 0.5, "cstar_over_classic_compiled": 0.5, "cstar_over_pinocchio": None,
+           "model_based": {"computed_torque": {"call_us": 0.75}, "pd_gravity": {"call_us": 1.25}}}
     text = format_table({"rows": [row], "t24_over_t6": {"cstar": 3.0, "classic": 3.0},
                          "t24_over_t6_compiled": {"cstar": 3.0, "classic": 3.0},
                          "goals": {"cstar_over_classic_le_0.75": True, "cstar_tick_le_half_pinocchio": None}})
     assert "x" in text and "n/a" in text and "yes" in text
+    assert "x C* 0.50 classic 1.00 CT 0.75 PD 1.25" in text  # update() − kernel, per law
