@@ -22,9 +22,11 @@ def test_registered_and_built_from_the_shipped_config():
     assert "arma_gmv" in CONTROLLERS
     cfg, c = shipped()
     assert c.order.na == c.order.nb == 2 and c.order.d == 1 and c.divisor == 20
-    assert c.filter.lam == 0.98 and list(c.filter.switches[:4]) == [1, 0, 0, 0]
-    assert c.filter.theta0[:, 1] == pytest.approx([2.0, -1.0, 4.82e-5, 4.82e-5, 0.0])
-    assert c.joint_params[0] == pytest.approx([7.4e-10, 2.3e-10, 8.5e-9])
+    # the paper's adaptive filter: r̂, R̂ and Q̂ adapted (q̂ off), in the residual form
+    assert c.filter.lam == 0.98 and list(c.filter.switches[:4]) == [1, 1, 0, 1]
+    assert c.filter.noise_form == "residual"
+    assert c.filter.theta0[:, 1] == pytest.approx([2.0, -1.0, 5.784e-5, 5.784e-5, 0.0])
+    assert c.joint_params[0] == pytest.approx([1.06e-9, 3.35e-10, 1.22e-8])
 
 
 @pytest.mark.parametrize("key, value", [
@@ -37,6 +39,7 @@ def test_registered_and_built_from_the_shipped_config():
     ("theta0", "[2.0, -1.0, nan, 1e-4, 0.0]"),
     ("P0", "-1.0"), ("R0", "-inf"), ("R_min", "0.0"),
     ("adapt", "{ r = true, x = true }"), ("adapt", "{ r = 1 }"),
+    ("noise_form", '"vb"'), ("noise_form", "1"),
 ])
 def test_bad_option_exits_2_naming_the_key(tmp_path, key, value):
     with pytest.raises(ConfigError) as err:
