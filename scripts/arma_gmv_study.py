@@ -128,6 +128,8 @@ def simulate(config: Path, friction: float | None = None, printed: bool = False)
         plant.tau_cmd[:] = cmd.tau_ff
         plant.step(dt)
     log["model"], log["tau_max"] = model, model.tau_max
+    if printed:
+        log["R_low"] = controller.R_low
     return log
 
 
@@ -145,6 +147,7 @@ class PrintedFilterGmv:
         adapt = [name for name, on in zip(SWITCH_NAMES, f.switches) if on]
         self.filters = [PrintedSageHusa(f.p, lam=f.lam, theta0=f.theta0[:, i], P0=np.diag(f.P0[i]), r0=f.r0[i],
                                         R0=f.R0[i], Q0=f.Q0[:, i], adapt=adapt) for i in range(f.m)]
+        self.R_low = [np.inf] * f.m  # the lowest R̂ each joint's filter reached
         self.t_prev = None
 
     def update(self, t, state, ref, cmd) -> None:
@@ -157,6 +160,7 @@ class PrintedFilterGmv:
                 regressor_into(i, c.y_hist, c.u_hist, o.d, h)
                 flt = self.filters[i]
                 flt.update(h, y)
+                self.R_low[i] = min(self.R_low[i], flt.R)
                 theta[:, i], signals[0, i], signals[1, i] = flt.theta, flt.r, flt.R
             y_star = ref.q[j] + ref.qd[j] * tau_h + 0.5 * ref.qdd[j] * tau_h ** 2
             phi = gmv_phi(i, theta, signals[0, i], y, c.y_hist, c.u_hist, o.na, o.d, y_pred)
@@ -189,6 +193,8 @@ def metrics(log: dict) -> dict:
            "max_hold_deg": np.nanmax(np.abs(e[hold]), axis=0).tolist() if np.any(np.isfinite(e[hold])) else None,
            "peak_tau_pct": (100 * np.nanmax(np.abs(tau), axis=0) / log["tau_max"]).tolist(),
            **ringing(t, tau), "fault": log["fault"]}
+    if "R_low" in log:
+        out["lowest_R_hat"] = log["R_low"]
     last = np.flatnonzero(np.isfinite(tau[:, 0]))[-1]
     G = gravity(log["model"], log["q"][last])
     out["tau_end"], out["gravity_end"] = tau[last].tolist(), G.tolist()
