@@ -87,12 +87,12 @@ def _variant(options: dict | None = None, controller: str | None = None) -> Path
     return path
 
 
-def simulate(config: Path, friction: float | None = None, printed: bool = False) -> dict:
-    """The job in ``config`` for SECONDS; ``printed``: its filter replaced by the printed equations."""
+def simulate(config: Path, friction: float | None = None, printed: bool = False, filtered: str = "") -> dict:
+    """The job in ``config`` for SECONDS; ``printed``, ``filtered``: see :class:`PythonLoopGmv`."""
     cfg = load_config(config)
     model, (controller,) = cfg.model, build(cfg).controllers
-    if printed:
-        controller = PrintedFilterGmv(controller)
+    if printed or filtered:
+        controller = PythonLoopGmv(controller, printed, filtered)
     if friction is None and cfg.sim.float("friction", 0.0) == 0.0:
         _no_friction_feedforward(controller)
     n, dt = model.nq, cfg.loop.period
@@ -128,17 +128,21 @@ def simulate(config: Path, friction: float | None = None, printed: bool = False)
         plant.tau_cmd[:] = cmd.tau_ff
         plant.step(dt)
     log["model"], log["tau_max"] = model, model.tau_max
-    if printed:
+    if printed or filtered:
         log["R_low"] = controller.R_low
     return log
 
 
-class PrintedFilterGmv:
-    """An arma_gmv controller whose filter is :class:`~rtctl.estimation.printed.PrintedSageHusa`
-    (the equations without safeguards), its GMV law and histories unchanged; Python, slow."""
+class PythonLoopGmv:
+    """An arma_gmv controller's update written out in Python (slow), for two departures from it:
+    ``printed``: the filter is :class:`~rtctl.estimation.printed.PrintedSageHusa` (the equations
+    without safeguards); ``filtered``: GMV's predictor (28) reads the filtered output
+    ŷ(k|k) = hᵀθ̂(k|k) + r̂ instead of the measured y — for y(k) alone ("current") or for the
+    past outputs too ("all"; the filter's regressor keeps the measured ones)."""
 
-    def __init__(self, controller):
+    def __init__(self, controller, printed: bool = False, filtered: str = ""):
         self.c, self.divisor, self.internals = controller, controller.divisor, controller.internals
+        self.printed, self.filtered = printed, filtered
 
     def reset(self, state) -> None:
         c = self.c
@@ -148,25 +152,36 @@ class PrintedFilterGmv:
         self.filters = [PrintedSageHusa(f.p, lam=f.lam, theta0=f.theta0[:, i], P0=np.diag(f.P0[i]), r0=f.r0[i],
                                         R0=f.R0[i], Q0=f.Q0[:, i], adapt=adapt) for i in range(f.m)]
         self.R_low = [np.inf] * f.m  # the lowest R̂ each joint's filter reached
+        self.yf_hist = c.y_hist.copy()  # the filtered outputs ŷ(k−1|k−1) … for "all"
         self.t_prev = None
 
     def update(self, t, state, ref, cmd) -> None:
-        c, o, theta, signals = self.c, self.c.order, self.c.filter.theta, self.c.filter.signals
+        c, o, f = self.c, self.c.order, self.c.filter
+        theta, signals = f.theta, f.signals
         tau_h = 0.0 if self.t_prev is None else o.d * (t - self.t_prev)
         h, y_pred = np.zeros(o.p), np.zeros(o.d)
         for i, j in enumerate(c.joints):
-            y = state.position[j]
+            y = y_gmv = state.position[j]
             if self.t_prev is not None:
                 regressor_into(i, c.y_hist, c.u_hist, o.d, h)
-                flt = self.filters[i]
-                flt.update(h, y)
-                self.R_low[i] = min(self.R_low[i], flt.R)
-                theta[:, i], signals[0, i], signals[1, i] = flt.theta, flt.r, flt.R
+                r_used = signals[0, i]
+                if self.printed:
+                    flt = self.filters[i]
+                    flt.update(h, y)
+                    theta[:, i], signals[0, i], signals[1, i] = flt.theta, flt.r, flt.R
+                else:
+                    f.update(i, h, y)
+                self.R_low[i] = min(self.R_low[i], signals[1, i])
+                if self.filtered:
+                    y_gmv = float(h @ theta[:, i]) + r_used
             y_star = ref.q[j] + ref.qd[j] * tau_h + 0.5 * ref.qdd[j] * tau_h ** 2
-            phi = gmv_phi(i, theta, signals[0, i], y, c.y_hist, c.u_hist, o.na, o.d, y_pred)
+            past = self.yf_hist if self.filtered == "all" else c.y_hist
+            phi = gmv_phi(i, theta, signals[0, i], y_gmv, past, c.u_hist, o.na, o.d, y_pred)
             u = gmv_law(theta[o.na, i], phi, y_star, c.joint_params[0, i], c.u_hist[0, i], c.joint_params[1, i])
             if not (np.isfinite(u) and np.all(np.isfinite(theta[:, i]))):
                 raise ControllerError(f"joint {i}: non-finite estimate or torque (R̂ = {signals[1, i]:.3g})")
+            self.yf_hist[1:, i] = self.yf_hist[:-1, i]
+            self.yf_hist[0, i] = y_gmv
             push_history(i, c.y_hist, c.u_hist, y, u)
             cmd.tau_ff[j] = u
         self.t_prev = t
@@ -175,12 +190,12 @@ class PrintedFilterGmv:
 def _no_friction_feedforward(controller) -> None:
     """The model-based laws' motor model is the robot file's armature *and* friction; the paper's
     plant has no friction, so their "true model" keeps the armature and drops the friction."""
-    from rtctl.control.slotine_li_kernels import COULOMB, VISCOUS
+    from rtctl.control import computed_torque, slotine_li_kernels
 
-    if hasattr(controller, "coulomb"):  # computed torque
-        controller.viscous[:] = controller.coulomb[:] = 0.0
+    if isinstance(controller, computed_torque.ComputedTorque):
+        controller.gains[computed_torque.VISCOUS] = controller.gains[computed_torque.COULOMB] = 0.0
     if hasattr(controller, "gains") and getattr(controller, "motor_model", False):  # Slotine–Li
-        controller.gains[VISCOUS] = controller.gains[COULOMB] = 0.0
+        controller.gains[slotine_li_kernels.VISCOUS] = controller.gains[slotine_li_kernels.COULOMB] = 0.0
 
 
 def metrics(log: dict) -> dict:
@@ -250,15 +265,17 @@ BEFORE_NAME = "ARMA/GMV before (r̂ only, θ̂(0) from J_min)"
 ADAPT_ALL = "{ r = true, R = true, q = false, Q = true }"
 # single changes to the shipped job: the noise statistics' forms and switches
 CASES = {
-    "printed (19)-(27), no safeguard (r̂, R̂, Q̂ on)": ({}, True),
-    "noise_form = sage_husa: (25), diagonal (27), safeguarded": ({"noise_form": '"sage_husa"'}, False),
-    "R̂, Q̂ fixed (r̂ only)": ({"adapt": "{ r = true, R = false, q = false, Q = false }"}, False),
-    "R̂ adapted, Q̂ fixed": ({"adapt": "{ r = true, R = true, q = false, Q = false }"}, False),
-    "θ̂(0), ρ from J_min (b̂0 / 1.2)": ({"theta0": BEFORE["theta0"], "rho": BEFORE["rho"], "P0": BEFORE["P0"]}, False),
-    BEFORE_NAME: (BEFORE, False),
-    "q̂ adapted too (r̂, R̂, q̂, Q̂ on)": ({"adapt": "{ r = true, R = true, q = true, Q = true }"}, False),
+    "printed (19)-(27), no safeguard (r̂, R̂, Q̂ on)": ({}, {"printed": True}),
+    "noise_form = sage_husa: (25), diagonal (27), safeguarded": ({"noise_form": '"sage_husa"'}, {}),
+    "R̂, Q̂ fixed (r̂ only)": ({"adapt": "{ r = true, R = false, q = false, Q = false }"}, {}),
+    "R̂ adapted, Q̂ fixed": ({"adapt": "{ r = true, R = true, q = false, Q = false }"}, {}),
+    "θ̂(0), ρ from J_min (b̂0 / 1.2)": ({"theta0": BEFORE["theta0"], "rho": BEFORE["rho"], "P0": BEFORE["P0"]}, {}),
+    BEFORE_NAME: (BEFORE, {}),
+    "GMV on the filtered output ŷ(k|k)": ({}, {"filtered": "current"}),
+    "GMV on filtered outputs ŷ(k|k), ŷ(k−1|k−1)": ({}, {"filtered": "all"}),
+    "q̂ adapted too (r̂, R̂, q̂, Q̂ on)": ({"adapt": "{ r = true, R = true, q = true, Q = true }"}, {}),
     "no adaptation at all (P(0) = 0, r̂ off)": ({"P0": "0.0", "adapt": "{ r = false, R = false, q = false, Q = false }"},
-                                               False),
+                                               {}),
 }
 
 
@@ -272,8 +289,8 @@ def sweep(out: Path) -> list[dict]:
                     options["theta0"] = _theta0(0.5)
                 m = metrics(simulate(_variant(options)))
                 rows.append({"theta0": theta0, "lam": lam, "sigma": sigma, **m, "verdict": verdict(m)})
-    for name, (options, printed) in CASES.items():
-        m = metrics(simulate(_variant(options), printed=printed))
+    for name, (options, how) in CASES.items():
+        m = metrics(simulate(_variant(options), **how))
         rows.append({"theta0": "good", "case": name, "lam": 0.98, "sigma": 0.1, **m, "verdict": verdict(m)})
     m = metrics(simulate(SHIPPED, friction=1.0))
     rows.append({"theta0": "good", "case": "drive friction on (viscous + Coulomb)", "lam": 0.98, "sigma": 0.1, **m,
