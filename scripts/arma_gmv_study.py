@@ -295,7 +295,7 @@ def sweep(out: Path) -> list[dict]:
     m = metrics(simulate(SHIPPED, friction=1.0))
     rows.append({"theta0": "good", "case": "drive friction on (viscous + Coulomb)", "lam": 0.98, "sigma": 0.1, **m,
                  "verdict": verdict(m)})
-    for scale in (0.5, 0.7, 0.8, 0.9, 1.5, 2.0, 4.0):
+    for scale in (0.5, 0.7, 0.8, 0.9, 1.1, 1.2, 1.3, 1.5, 2.0, 4.0):
         m = metrics(simulate(_variant({"theta0": _theta0(scale)})))
         rows.append({"theta0": f"b̂ × {scale:g}", "lam": 0.98, "sigma": 0.1, **m, "verdict": verdict(m)})
     table = ["| θ̂(0) | case | λ | ρ / b̂0² | RMS move (°) | max error in the hold (°) | peak torque (%) | "
