@@ -274,8 +274,8 @@ CASES = {
     "GMV on the filtered output ŷ(k|k)": ({}, {"filtered": "current"}),
     "GMV on filtered outputs ŷ(k|k), ŷ(k−1|k−1)": ({}, {"filtered": "all"}),
     "q̂ adapted too (r̂, R̂, q̂, Q̂ on)": ({"adapt": "{ r = true, R = true, q = true, Q = true }"}, {}),
-    "no adaptation at all (P(0) = 0, r̂ off)": ({"P0": "0.0", "adapt": "{ r = false, R = false, q = false, Q = false }"},
-                                               {}),
+    "no adaptation at all (P(0) = 0, r̂ off)": (
+        {"P0": "0.0", "adapt": "{ r = false, R = false, q = false, Q = false }"}, {}),
 }
 
 

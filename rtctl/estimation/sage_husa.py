@@ -18,6 +18,17 @@ and d_k = (1 − λ) / (1 − λ^(k+1)), 0 < λ < 1 (λ is the forgetting factor
     q̂(k+1) = (1 − d_k) q̂(k) + d_k (θ̂(k+1|k+1) − θ̂(k|k))                      (26)
     Q̂(k+1) = (1 − d_k) Q̂(k) + d_k (K ε² Kᵀ + P(k+1|k+1) − P(k|k))              (27)
 
+``noise_form = "residual"`` (rtctl's variant, docs/arma_kalman.md) replaces (25) and (27) by::
+
+    R̂(k+1) = (1 − d_k) R̂(k) + d_k ((y − hᵀθ̂(k+1|k+1) − r̂(k))² + hᵀ P(k+1|k+1) h)        (25′)
+    Q̂(k+1) = (1 − d_k) Q̂(k) + d_k diag(K ε² Kᵀ + P(k+1|k+1) − P(k|k)), an entry that is
+             negative taken from K ε² Kᵀ alone                                              (27′)
+
+(residual-based covariance matching, Mohamed & Schwarz 1999, with the fading weight d_k; the
+variational-Bayes noise update of Särkkä & Nummenmaa 2009; biased/unbiased switching for Q̂):
+both samples are non-negative by construction. With R_gain the gain's R, the residual is
+ε R_gain/S and hᵀP(k+1|k+1)h = s R_gain/S, S = s + R_gain, s = hᵀP(k+1|k)h.
+
 Each of (24)-(27) is a switch (:data:`ADAPT_R` … :data:`ADAPT_QCOV`); q̂ is off by default
 because it integrates Kε and diverges, in closed loop and in open loop alike (tests/estimation). Safeguards, which the
 plain Sage–Husa equations lack: when ε² − hᵀP(k+1|k)h < 0 (always, while P is still large) (25)
@@ -46,7 +57,7 @@ from rtctl.compiled import kernel, leaf
 ADAPT_R, ADAPT_RCOV, ADAPT_Q, ADAPT_QCOV, FORGET_COV, RESIDUAL = range(6)
 N_SWITCHES = 6
 SWITCH_NAMES = ("r", "R", "q", "Q")
-NOISE_FORMS = ("sage_husa", "residual")  # RESIDUAL = the index
+NOISE_FORMS = ("sage_husa", "residual")  # switches[RESIDUAL] = the index
 # rows of ``signals``
 R_HAT, RCOV_HAT, EPS, PRED_ERR = range(4)
 R_REL = 1e-9  # the gain's R is at least R_REL · hᵀP(k+1|k)h
@@ -205,7 +216,8 @@ class SageHusa:
     Initial values (a number, p numbers for every channel, or m × p): ``theta0``, ``P0``
     (the diagonal of P(0)), ``q0``, ``Q0`` (the diagonal of Q̂(0)), ``Q_min``; per channel (a
     number or m): ``r0``, ``R0``. ``adapt``: the set of switched-on adaptations among
-    ``"r", "R", "q", "Q"`` (default r̂ and R̂). ``R_min`` > 0 floors R̂.
+    ``"r", "R", "q", "Q"`` (default r̂ and R̂). ``R_min`` > 0 floors R̂. ``noise_form``: the
+    form of (25) and (27), ``"sage_husa"`` or ``"residual"`` (the module docstring).
     """
 
     def __init__(self, m: int, p: int, *, lam=0.98, theta0=0.0, P0=1.0, r0=0.0, R0=1e-6, q0=0.0, Q0=0.0,

@@ -44,8 +44,8 @@ def _run_and_identify(tmp_path, options=None):
                         "10", "--telemetry", str(run), "--socket", str(tmp_path / "s.sock")], capture_output=True,
                        text=True, timeout=300, cwd=ROOT)
     assert r.returncode == 0, r.stderr[-2000:]
-    r = subprocess.run([sys.executable, "-m", "rtctl.cli", "identify", str(run), "--period", "0.02", "--json", str(out)],
-                       capture_output=True, text=True, timeout=300, cwd=ROOT)
+    r = subprocess.run([sys.executable, "-m", "rtctl.cli", "identify", str(run), "--period", "0.02", "--json",
+                        str(out)], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert r.returncode == 0, r.stderr[-2000:]
     return np.array(json.loads(out.read_text())["theta"]), read(run)
 

@@ -27,7 +27,8 @@ def _check(f):
 def test_estimates_stay_sane_under_attack(seed, attack, forget, lam, scale, noise_form):
     rng = np.random.default_rng(seed)
     f = SageHusa(1, P_DIM, lam=lam, theta0=rng.normal(size=P_DIM), P0=rng.uniform(0, 10, P_DIM), R0=1e-3,
-                 Q0=rng.uniform(0, 1e-3, P_DIM), adapt=("r", "R", "q", "Q"), forget_covariance=forget, noise_form=noise_form)
+                 Q0=rng.uniform(0, 1e-3, P_DIM), adapt=("r", "R", "q", "Q"), forget_covariance=forget,
+                 noise_form=noise_form)
     h_const = rng.normal(size=P_DIM) * scale
     for k in range(250):
         h = h_const if attack == "constant_input" else rng.normal(size=P_DIM) * scale
