@@ -68,8 +68,8 @@ def test_the_shipped_job_adapts_the_noise_statistics_tracks_and_holds_without_ri
 @pytest.mark.slow
 def test_sweep_row_the_printed_equations_fail_where_the_residual_form_holds():
     """The same loop, the filter swapped for rtctl/estimation/printed.py (r̂, R̂, Q̂ adapted, no
-    safeguard): R̂ goes negative and the hold oscillates (measured: R̂ down to −2e-6 on the
-    shoulder, hold torque 52-84 N·m peak to peak). The committed sweep (docs/arma_gmv_sweep.json,
+    safeguard): R̂ goes negative and the hold oscillates (measured: R̂ down to −1.1e-5 on the
+    elbow and −1.2e-6 on the waist, hold torque 52-84 N·m peak to peak). The committed sweep (docs/arma_gmv_sweep.json,
     written by scripts/arma_gmv_study.py) says the same."""
     printed = study.simulate(study.SHIPPED, printed=True)
     shipped_log = study.simulate(study.SHIPPED)
