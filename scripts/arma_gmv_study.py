@@ -26,7 +26,11 @@ sys.path.insert(0, str(ROOT))
 from hil_sim.plant import Plant  # noqa: E402
 from rtctl.config import load_config  # noqa: E402
 from rtctl.control.base import Reference  # noqa: E402
+from rtctl.control.gmv import gmv_law, gmv_phi  # noqa: E402
 from rtctl.errors import ControllerError  # noqa: E402
+from rtctl.estimation.arx import push_history, regressor_into  # noqa: E402
+from rtctl.estimation.printed import PrintedSageHusa  # noqa: E402
+from rtctl.estimation.sage_husa import SWITCH_NAMES  # noqa: E402
 from rtctl.hal.joints import JointCommand, JointState  # noqa: E402
 from rtctl.jsonout import dumps  # noqa: E402
 from rtctl.model.dynamics import gravity  # noqa: E402
@@ -35,7 +39,16 @@ from rtctl.trajectory import JointLimits, through_waypoints  # noqa: E402
 
 SHIPPED = ROOT / "configs" / "puma3_arma_gmv_sim.toml"
 SECONDS, MOVE_END, SETTLE = 3.0, 1.0, 1.5
-B0 = np.array([8.58e-5, 4.82e-5, 2.915e-4])  # the shipped θ̂(0)'s b0 per joint
+HOLD = 1.5  # s: the hold's ringing is measured from 0.5 s after the move to the end
+STEP_MIN = 0.1  # N·m: torque steps smaller than this are not counted as alternating
+B0 = np.array([1.03e-4, 5.784e-5, 3.498e-4])  # the shipped θ̂(0)'s b0 per joint: T²/(2 J_min/1.2)
+# the job shipped before issue 29: r̂ alone adapted, θ̂(0) from J_min (b0 = B0/1.2), ρ = 0.1 b0²
+BEFORE = {"adapt": "{ r = true, R = false, q = false, Q = false }", "noise_form": '"sage_husa"',
+          "theta0": "[[2.0, -1.0, 8.58e-5, 8.58e-5, 0.0], [2.0, -1.0, 4.82e-5, 4.82e-5, 0.0], "
+                    "[2.0, -1.0, 2.915e-4, 2.915e-4, 0.0]]",
+          "P0": "[[1e-6, 1e-6, 2.9e-12, 2.9e-12, 2.9e-12], [1e-6, 1e-6, 9.3e-13, 9.3e-13, 9.3e-13], "
+                "[1e-6, 1e-6, 3.4e-11, 3.4e-11, 3.4e-11]]",
+          "rho": "[7.4e-10, 2.3e-10, 8.5e-9]"}
 OTHERS = {
     "C* Slotine–Li (1 kHz, π̂(0) = 0)": '''type = "slotine_li"
 law = "cstar"
@@ -74,9 +87,12 @@ def _variant(options: dict | None = None, controller: str | None = None) -> Path
     return path
 
 
-def simulate(config: Path, friction: float | None = None) -> dict:
+def simulate(config: Path, friction: float | None = None, printed: bool = False, filtered: str = "") -> dict:
+    """The job in ``config`` for SECONDS; ``printed``, ``filtered``: see :class:`PythonLoopGmv`."""
     cfg = load_config(config)
     model, (controller,) = cfg.model, build(cfg).controllers
+    if printed or filtered:
+        controller = PythonLoopGmv(controller, printed, filtered)
     if friction is None and cfg.sim.float("friction", 0.0) == 0.0:
         _no_friction_feedforward(controller)
     n, dt = model.nq, cfg.loop.period
@@ -112,18 +128,74 @@ def simulate(config: Path, friction: float | None = None) -> dict:
         plant.tau_cmd[:] = cmd.tau_ff
         plant.step(dt)
     log["model"], log["tau_max"] = model, model.tau_max
+    if printed or filtered:
+        log["R_low"] = controller.R_low
     return log
+
+
+class PythonLoopGmv:
+    """An arma_gmv controller's update written out in Python (slow), for two departures from it:
+    ``printed``: the filter is :class:`~rtctl.estimation.printed.PrintedSageHusa` (the equations
+    without safeguards); ``filtered``: GMV's predictor (28) reads the filtered output
+    ŷ(k|k) = hᵀθ̂(k|k) + r̂ instead of the measured y — for y(k) alone ("current") or for the
+    past outputs too ("all"; the filter's regressor keeps the measured ones)."""
+
+    def __init__(self, controller, printed: bool = False, filtered: str = ""):
+        self.c, self.divisor, self.internals = controller, controller.divisor, controller.internals
+        self.printed, self.filtered = printed, filtered
+
+    def reset(self, state) -> None:
+        c = self.c
+        c.reset(state)
+        f = c.filter
+        adapt = [name for name, on in zip(SWITCH_NAMES, f.switches) if on]
+        self.filters = [PrintedSageHusa(f.p, lam=f.lam, theta0=f.theta0[:, i], P0=np.diag(f.P0[i]), r0=f.r0[i],
+                                        R0=f.R0[i], Q0=f.Q0[:, i], adapt=adapt) for i in range(f.m)]
+        self.R_low = [np.inf] * f.m  # the lowest R̂ each joint's filter reached
+        self.yf_hist = c.y_hist.copy()  # the filtered outputs ŷ(k−1|k−1) … for "all"
+        self.t_prev = None
+
+    def update(self, t, state, ref, cmd) -> None:
+        c, o, f = self.c, self.c.order, self.c.filter
+        theta, signals = f.theta, f.signals
+        tau_h = 0.0 if self.t_prev is None else o.d * (t - self.t_prev)
+        h, y_pred = np.zeros(o.p), np.zeros(o.d)
+        for i, j in enumerate(c.joints):
+            y = y_gmv = state.position[j]
+            if self.t_prev is not None:
+                regressor_into(i, c.y_hist, c.u_hist, o.d, h)
+                r_used = signals[0, i]
+                if self.printed:
+                    flt = self.filters[i]
+                    flt.update(h, y)
+                    theta[:, i], signals[0, i], signals[1, i] = flt.theta, flt.r, flt.R
+                else:
+                    f.update(i, h, y)
+                self.R_low[i] = min(self.R_low[i], signals[1, i])
+                if self.filtered:
+                    y_gmv = float(h @ theta[:, i]) + r_used
+            y_star = ref.q[j] + ref.qd[j] * tau_h + 0.5 * ref.qdd[j] * tau_h ** 2
+            past = self.yf_hist if self.filtered == "all" else c.y_hist
+            phi = gmv_phi(i, theta, signals[0, i], y_gmv, past, c.u_hist, o.na, o.d, y_pred)
+            u = gmv_law(theta[o.na, i], phi, y_star, c.joint_params[0, i], c.u_hist[0, i], c.joint_params[1, i])
+            if not (np.isfinite(u) and np.all(np.isfinite(theta[:, i]))):
+                raise ControllerError(f"joint {i}: non-finite estimate or torque (R̂ = {signals[1, i]:.3g})")
+            self.yf_hist[1:, i] = self.yf_hist[:-1, i]
+            self.yf_hist[0, i] = y_gmv
+            push_history(i, c.y_hist, c.u_hist, y, u)
+            cmd.tau_ff[j] = u
+        self.t_prev = t
 
 
 def _no_friction_feedforward(controller) -> None:
     """The model-based laws' motor model is the robot file's armature *and* friction; the paper's
     plant has no friction, so their "true model" keeps the armature and drops the friction."""
-    from rtctl.control.slotine_li_kernels import COULOMB, VISCOUS
+    from rtctl.control import computed_torque, slotine_li_kernels
 
-    if hasattr(controller, "coulomb"):  # computed torque
-        controller.viscous[:] = controller.coulomb[:] = 0.0
+    if isinstance(controller, computed_torque.ComputedTorque):
+        controller.gains[computed_torque.VISCOUS] = controller.gains[computed_torque.COULOMB] = 0.0
     if hasattr(controller, "gains") and getattr(controller, "motor_model", False):  # Slotine–Li
-        controller.gains[VISCOUS] = controller.gains[COULOMB] = 0.0
+        controller.gains[slotine_li_kernels.VISCOUS] = controller.gains[slotine_li_kernels.COULOMB] = 0.0
 
 
 def metrics(log: dict) -> dict:
@@ -135,12 +207,25 @@ def metrics(log: dict) -> dict:
            "err_settle_deg": np.abs(e[after]).tolist(),
            "max_hold_deg": np.nanmax(np.abs(e[hold]), axis=0).tolist() if np.any(np.isfinite(e[hold])) else None,
            "peak_tau_pct": (100 * np.nanmax(np.abs(tau), axis=0) / log["tau_max"]).tolist(),
-           "hold_tau_pp": np.ptp(tau[(t > 2.0) & np.isfinite(tau[:, 0])], axis=0).tolist(),
-           "fault": log["fault"]}
+           **ringing(t, tau), "fault": log["fault"]}
+    if "R_low" in log:
+        out["lowest_R_hat"] = log["R_low"]
     last = np.flatnonzero(np.isfinite(tau[:, 0]))[-1]
     G = gravity(log["model"], log["q"][last])
     out["tau_end"], out["gravity_end"] = tau[last].tolist(), G.tolist()
     return out
+
+
+def ringing(t, tau, every: int = 20) -> dict:
+    """The hold's torque (t ≥ HOLD), one value per 20 ms controller sample: peak to peak, and the
+    fraction of consecutive steps Δu(k), Δu(k−1) of opposite signs, each at least STEP_MIN —
+    ≈ 1 for a torque ringing at the sample rate, 0 for one that settles."""
+    u = tau[::every][(t[::every] >= HOLD) & np.isfinite(tau[::every, 0])]
+    if len(u) < 3:
+        return {"hold_tau_pp": None, "hold_alternation": None}
+    du = np.diff(u, axis=0)
+    flips = (du[1:] * du[:-1] < 0) & (np.abs(du[1:]) >= STEP_MIN) & (np.abs(du[:-1]) >= STEP_MIN)
+    return {"hold_tau_pp": np.ptp(u, axis=0).tolist(), "hold_alternation": flips.mean(axis=0).tolist()}
 
 
 def verdict(m: dict) -> str:
@@ -148,6 +233,8 @@ def verdict(m: dict) -> str:
         return "fails: " + m["fault"]
     if max(m["max_hold_deg"]) > 2.0 or max(m["hold_tau_pp"]) > 20.0:
         return "oscillates in the hold"
+    if any(a >= 0.5 and pp >= 1.0 for a, pp in zip(m["hold_alternation"], m["hold_tau_pp"])):
+        return "rings in the hold"
     if max(m["peak_tau_pct"]) >= 99.9:
         return "works, torque saturates"
     return "works"
@@ -160,18 +247,36 @@ def _fmt(values, digits=2):
 def compare(out: Path) -> list[dict]:
     rows = [{"controller": "ARMA/GMV (paper, 50 Hz)", **metrics(arma := simulate(SHIPPED))}]
     logs = {"ARMA/GMV (paper, 50 Hz)": arma}
-    for name, body in OTHERS.items():
-        log = simulate(_variant(controller=body))
-        logs[name] = log
+    cases = {BEFORE_NAME: _variant(BEFORE), **{name: _variant(controller=body) for name, body in OTHERS.items()}}
+    for name, config in cases.items():
+        logs[name] = log = simulate(config)
         rows.append({"controller": name, **metrics(log)})
     table = ["| controller | RMS error during the move (°), waist / shoulder / elbow | error 0.5 s after (°) | "
-             "peak torque (% of limit) |", "|---|---|---|---|"]
+             "peak torque (% of limit) | hold: torque peak to peak (N·m), alternating steps |", "|---|---|---|---|---|"]
     for r in rows:
         table.append(f"| {r['controller']} | {_fmt(r['rms_move_deg'], 3)} | {_fmt(r['err_settle_deg'], 4)} | "
-                     f"{_fmt(r['peak_tau_pct'], 0)} |")
+                     f"{_fmt(r['peak_tau_pct'], 0)} | {_fmt(r['hold_tau_pp'], 1)}; {_fmt(r['hold_alternation'], 2)} |")
     _write(out, "arma_gmv_comparison", rows, table)
     _plot_comparison(logs, out / "img" / "arma_gmv_comparison.png")
     return rows
+
+
+BEFORE_NAME = "ARMA/GMV before (r̂ only, θ̂(0) from J_min)"
+ADAPT_ALL = "{ r = true, R = true, q = false, Q = true }"
+# single changes to the shipped job: the noise statistics' forms and switches
+CASES = {
+    "printed (19)-(27), no safeguard (r̂, R̂, Q̂ on)": ({}, {"printed": True}),
+    "noise_form = sage_husa: (25), diagonal (27), safeguarded": ({"noise_form": '"sage_husa"'}, {}),
+    "R̂, Q̂ fixed (r̂ only)": ({"adapt": "{ r = true, R = false, q = false, Q = false }"}, {}),
+    "R̂ adapted, Q̂ fixed": ({"adapt": "{ r = true, R = true, q = false, Q = false }"}, {}),
+    "θ̂(0), ρ from J_min (b̂0 / 1.2)": ({"theta0": BEFORE["theta0"], "rho": BEFORE["rho"], "P0": BEFORE["P0"]}, {}),
+    BEFORE_NAME: (BEFORE, {}),
+    "GMV on the filtered output ŷ(k|k)": ({}, {"filtered": "current"}),
+    "GMV on filtered outputs ŷ(k|k), ŷ(k−1|k−1)": ({}, {"filtered": "all"}),
+    "q̂ adapted too (r̂, R̂, q̂, Q̂ on)": ({"adapt": "{ r = true, R = true, q = true, Q = true }"}, {}),
+    "no adaptation at all (P(0) = 0, r̂ off)": (
+        {"P0": "0.0", "adapt": "{ r = false, R = false, q = false, Q = false }"}, {}),
+}
 
 
 def sweep(out: Path) -> list[dict]:
@@ -184,27 +289,22 @@ def sweep(out: Path) -> list[dict]:
                     options["theta0"] = _theta0(0.5)
                 m = metrics(simulate(_variant(options)))
                 rows.append({"theta0": theta0, "lam": lam, "sigma": sigma, **m, "verdict": verdict(m)})
-    extra = {"R̂ adapted (r̂, R̂ on)": {"adapt": "{ r = true, R = true, q = false, Q = false }"},
-             "Q̂ adapted (r̂, Q̂ on, Q̂(0) = 1e-14)": {"adapt": "{ r = true, R = false, q = false, Q = true }",
-                                                   "Q0": "1e-14"},
-             "q̂ adapted (r̂, R̂, q̂ on)": {"adapt": "{ r = true, R = true, q = true, Q = false }"},
-             "no adaptation at all (P(0) = 0, r̂ off)": {"P0": "0.0",
-                                                        "adapt": "{ r = false, R = false, q = false, Q = false }"}}
-    for name, options in extra.items():
-        m = metrics(simulate(_variant(options)))
+    for name, (options, how) in CASES.items():
+        m = metrics(simulate(_variant(options), **how))
         rows.append({"theta0": "good", "case": name, "lam": 0.98, "sigma": 0.1, **m, "verdict": verdict(m)})
     m = metrics(simulate(SHIPPED, friction=1.0))
     rows.append({"theta0": "good", "case": "drive friction on (viscous + Coulomb)", "lam": 0.98, "sigma": 0.1, **m,
                  "verdict": verdict(m)})
-    for scale in (0.5, 0.7, 0.8, 0.9, 1.5, 2.0, 4.0):
+    for scale in (0.5, 0.7, 0.8, 0.9, 1.1, 1.2, 1.3, 1.5, 2.0, 4.0):
         m = metrics(simulate(_variant({"theta0": _theta0(scale)})))
         rows.append({"theta0": f"b̂ × {scale:g}", "lam": 0.98, "sigma": 0.1, **m, "verdict": verdict(m)})
-    table = ["| θ̂(0) | case | λ | ρ / b̂0² | RMS move (°) | max error in the hold (°) | peak torque (%) | verdict |",
-             "|---|---|---|---|---|---|---|---|"]
+    table = ["| θ̂(0) | case | λ | ρ / b̂0² | RMS move (°) | max error in the hold (°) | peak torque (%) | "
+             "hold torque pp (N·m) | verdict |", "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         hold = _fmt(r["max_hold_deg"], 3) if r["max_hold_deg"] is not None else "—"
+        pp = _fmt(r["hold_tau_pp"], 1) if r["hold_tau_pp"] is not None else "—"
         table.append(f"| {r['theta0']} | {r.get('case', '')} | {r['lam']} | {r['sigma']:g} | "
-                     f"{_fmt(r['rms_move_deg'], 3)} | {hold} | {_fmt(r['peak_tau_pct'], 0)} | {r['verdict']} |")
+                     f"{_fmt(r['rms_move_deg'], 3)} | {hold} | {_fmt(r['peak_tau_pct'], 0)} | {pp} | {r['verdict']} |")
     _write(out, "arma_gmv_sweep", rows, table)
     return rows
 

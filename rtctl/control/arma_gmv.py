@@ -31,11 +31,11 @@ from rtctl.control.gmv import gmv_law, gmv_phi
 from rtctl.control.tunable import Tunable
 from rtctl.errors import ControllerError
 from rtctl.estimation.arx import MAX_ORDER, ArxOrder, push_history, regressor_into
-from rtctl.estimation.sage_husa import (QUANTITIES, SWITCH_NAMES, SageHusa, first_nonfinite, sage_husa_step,
-                                        state_views)
+from rtctl.estimation.sage_husa import (N_SWITCHES, NOISE_FORMS, QUANTITIES, SWITCH_NAMES, SageHusa, first_nonfinite,
+                                        sage_husa_step, state_views)
 
-# int settings: the filter's switches (0..4), then the order, then the owned joints
-NA, NB, D, PRIMED, JOINTS = 5, 6, 7, 8, 9
+# int settings: the filter's switches, then the order, then the owned joints
+NA, NB, D, PRIMED, JOINTS = range(N_SWITCHES, N_SWITCHES + 5)
 # float settings
 LAM, R_MIN, HORIZON = range(3)
 N_FLOAT_SETTINGS = 3
@@ -108,13 +108,13 @@ class ArmaGmv(Controller):
     """
 
     def __init__(self, model, *, theta0, P0, rho, order: ArxOrder = ArxOrder(), lam=0.98, r0=0.0, R0=1e-8, q0=0.0,
-                 Q0=0.0, Q_min=0.0, R_min=1e-12, adapt=("r", "R"), forget_covariance=False, joints=None, divisor=1,
-                 name="arma_gmv"):
+                 Q0=0.0, Q_min=0.0, R_min=1e-12, adapt=("r", "R"), forget_covariance=False, noise_form="sage_husa",
+                 joints=None, divisor=1, name="arma_gmv"):
         super().__init__(name, model, joints, divisor)
         m = len(self.joints)
         self.order = order
         self.filter = SageHusa(m, order.p, lam=lam, theta0=theta0, P0=P0, r0=r0, R0=R0, q0=q0, Q0=Q0, adapt=adapt,
-                               R_min=R_min, Q_min=Q_min, forget_covariance=forget_covariance)
+                               R_min=R_min, Q_min=Q_min, forget_covariance=forget_covariance, noise_form=noise_form)
         f = self.filter
         width = max(order.p, order.d)
         self.work = np.zeros(N_FLOAT_SETTINGS + (2 + order.na + order.memory) * m + 4 * width)
@@ -127,7 +127,7 @@ class ArmaGmv(Controller):
         tau_max = model.tau_max[self.joints]
         self.joint_params[U_MAX] = np.where(np.isfinite(tau_max), tau_max, 1e300)
         self.iset = np.zeros(JOINTS + m, dtype=np.int64)
-        self.iset[:5] = f.switches
+        self.iset[:N_SWITCHES] = f.switches
         self.iset[NA], self.iset[NB], self.iset[D] = order.na, order.nb, order.d
         self.iset[JOINTS:] = self.joints
         self.fset[LAM], self.fset[R_MIN] = f.lam, f.R_min
@@ -139,7 +139,7 @@ class ArmaGmv(Controller):
     @classmethod
     def from_config(cls, cfg, model):
         """Options: na, nb, d, lam, rho, adapt = {r, R, q, Q}, theta0, P0, r0, R0, q0, Q0, Q_min,
-        R_min, forget_covariance (docs/arma_kalman.md)."""
+        R_min, forget_covariance, noise_form (docs/arma_kalman.md)."""
         t, m = cfg.options, len(cfg.joints)
         order = ArxOrder(*(t.int(k, default, min=1, max=MAX_ORDER[k]) for k, default in (("na", 2), ("nb", 2), ("d", 1))))
         lam = t.float("lam", 0.98)
@@ -156,8 +156,9 @@ class ArmaGmv(Controller):
                 q0=_rows(t, "q0", m, order.p, default=0.0), Q0=_rows(t, "Q0", m, order.p, 0.0, nonnegative=True),
                 Q_min=_rows(t, "Q_min", m, order.p, 0.0, nonnegative=True),
                 R_min=t.float("R_min", 1e-12, positive=True), adapt=tuple(k for k in SWITCH_NAMES if switches[k]),
-                forget_covariance=t.bool("forget_covariance", False), joints=cfg.joints, divisor=cfg.divisor,
-                name=cfg.name)
+                forget_covariance=t.bool("forget_covariance", False),
+                noise_form=t.str("noise_form", "sage_husa", choices=NOISE_FORMS), joints=cfg.joints,
+                divisor=cfg.divisor, name=cfg.name)
         t.done()
         return c
 

@@ -18,6 +18,17 @@ and d_k = (1 − λ) / (1 − λ^(k+1)), 0 < λ < 1 (λ is the forgetting factor
     q̂(k+1) = (1 − d_k) q̂(k) + d_k (θ̂(k+1|k+1) − θ̂(k|k))                      (26)
     Q̂(k+1) = (1 − d_k) Q̂(k) + d_k (K ε² Kᵀ + P(k+1|k+1) − P(k|k))              (27)
 
+``noise_form = "residual"`` (rtctl's variant, docs/arma_kalman.md) replaces (25) and (27) by::
+
+    R̂(k+1) = (1 − d_k) R̂(k) + d_k ((y − hᵀθ̂(k+1|k+1) − r̂(k))² + hᵀ P(k+1|k+1) h)        (25′)
+    Q̂(k+1) = (1 − d_k) Q̂(k) + d_k diag(K ε² Kᵀ + P(k+1|k+1) − P(k|k)), an entry that is
+             negative taken from K ε² Kᵀ alone                                              (27′)
+
+(residual-based covariance matching, Mohamed & Schwarz 1999, with the fading weight d_k; the
+variational-Bayes noise update of Särkkä & Nummenmaa 2009; biased/unbiased switching for Q̂):
+both samples are non-negative by construction. With R_gain the gain's R, the residual is
+ε R_gain/S and hᵀP(k+1|k+1)h = s R_gain/S, S = s + R_gain, s = hᵀP(k+1|k)h.
+
 Each of (24)-(27) is a switch (:data:`ADAPT_R` … :data:`ADAPT_QCOV`); q̂ is off by default
 because it integrates Kε and diverges, in closed loop and in open loop alike (tests/estimation). Safeguards, which the
 plain Sage–Husa equations lack: when ε² − hᵀP(k+1|k)h < 0 (always, while P is still large) (25)
@@ -43,8 +54,10 @@ import numpy as np
 from rtctl.compiled import kernel, leaf
 
 # switches (indices into the int64 ``switches`` array)
-ADAPT_R, ADAPT_RCOV, ADAPT_Q, ADAPT_QCOV, FORGET_COV = range(5)
+ADAPT_R, ADAPT_RCOV, ADAPT_Q, ADAPT_QCOV, FORGET_COV, RESIDUAL = range(6)
+N_SWITCHES = 6
 SWITCH_NAMES = ("r", "R", "q", "Q")
+NOISE_FORMS = ("sage_husa", "residual")  # switches[RESIDUAL] = the index
 # rows of ``signals``
 R_HAT, RCOV_HAT, EPS, PRED_ERR = range(4)
 R_REL = 1e-9  # the gain's R is at least R_REL · hᵀP(k+1|k)h
@@ -84,8 +97,8 @@ def sage_husa_step(i, theta, P, q_hat, Q_hat, signals, fade, h, y, lam, switches
     # variance along h, so rounding cannot drive it indefinite (R̂ at its floor, P → 0)
     R_gain = R_hat if R_hat > R_REL * s else R_REL * s
     S = s + R_gain
+    inv_S = 1.0 / S
     if s > 0.0:  # s ≤ 0: P has (numerically) no variance along h, y carries no news about θ
-        inv_S = 1.0 / S
         # Joseph form, expanded: (I − K hᵀ) P (I − K hᵀ)ᵀ + R K Kᵀ = P − K Phᵀ − (Ph − s K) Kᵀ + R K Kᵀ
         for a in range(p):
             Ka = Ph[a] * inv_S
@@ -104,11 +117,18 @@ def sage_husa_step(i, theta, P, q_hat, Q_hat, signals, fade, h, y, lam, switches
             Ph[a] = 0.0  # K = 0 for (26), (27)
     if switches[ADAPT_R]:  # (24)
         signals[R_HAT, i] = (1.0 - dk) * r_hat + dk * pred
-    if switches[ADAPT_RCOV]:  # (25), never from a negative sample, floored
-        innov = eps * eps - s
-        if innov < 0.0:
-            innov = eps * eps
-        R_new = (1.0 - dk) * R_hat + dk * innov
+    if switches[ADAPT_RCOV]:
+        if switches[RESIDUAL]:  # (25) residual form: (y − hᵀθ̂(k+1|k+1) − r̂)² + hᵀP(k+1|k+1)h > 0
+            if s > 0.0:
+                res = eps * R_gain * inv_S
+                sample = res * res + s * R_gain * inv_S
+            else:
+                sample = eps * eps
+        else:  # (25), never from a negative sample
+            sample = eps * eps - s
+            if sample < 0.0:
+                sample = eps * eps
+        R_new = (1.0 - dk) * R_hat + dk * sample
         signals[RCOV_HAT, i] = R_new if R_new > R_min else R_min
     if switches[ADAPT_Q]:  # (26): θ̂(k+1|k+1) − θ̂(k|k) = q̂(k) + K ε
         for a in range(p):
@@ -116,7 +136,10 @@ def sage_husa_step(i, theta, P, q_hat, Q_hat, signals, fade, h, y, lam, switches
     if switches[ADAPT_QCOV]:  # (27), diagonal, floored
         for a in range(p):
             Ka = Ph[a] / S
-            Q_new = (1.0 - dk) * Q_hat[a, i] + dk * (Ka * Ka * eps * eps + Pi[a, a] - old_diag[a])
+            sample = Ka * Ka * eps * eps + Pi[a, a] - old_diag[a]
+            if sample < 0.0 and switches[RESIDUAL]:  # the biased K ε² Kᵀ instead: never negative
+                sample = Ka * Ka * eps * eps
+            Q_new = (1.0 - dk) * Q_hat[a, i] + dk * sample
             Q_hat[a, i] = Q_new if Q_new > Q_min[a, i] else Q_min[a, i]
     signals[EPS, i] = eps
     signals[PRED_ERR, i] = pred
@@ -193,11 +216,12 @@ class SageHusa:
     Initial values (a number, p numbers for every channel, or m × p): ``theta0``, ``P0``
     (the diagonal of P(0)), ``q0``, ``Q0`` (the diagonal of Q̂(0)), ``Q_min``; per channel (a
     number or m): ``r0``, ``R0``. ``adapt``: the set of switched-on adaptations among
-    ``"r", "R", "q", "Q"`` (default r̂ and R̂). ``R_min`` > 0 floors R̂.
+    ``"r", "R", "q", "Q"`` (default r̂ and R̂). ``R_min`` > 0 floors R̂. ``noise_form``: the
+    form of (25) and (27), ``"sage_husa"`` or ``"residual"`` (the module docstring).
     """
 
     def __init__(self, m: int, p: int, *, lam=0.98, theta0=0.0, P0=1.0, r0=0.0, R0=1e-6, q0=0.0, Q0=0.0,
-                 adapt=("r", "R"), R_min=1e-12, Q_min=0.0, forget_covariance=False):
+                 adapt=("r", "R"), R_min=1e-12, Q_min=0.0, forget_covariance=False, noise_form="sage_husa"):
         if m < 1 or p < 1:
             raise ValueError(f"need at least one channel and one coefficient, got m={m}, p={p}")
         if not 0.0 < lam < 1.0:
@@ -226,10 +250,14 @@ class SageHusa:
         self.P0 = np.zeros((m, p, p))
         for i in range(m):
             self.P0[i][np.diag_indices(p)] = P0d[:, i]
-        self.switches = np.zeros(5, dtype=np.int64)
+        if noise_form not in NOISE_FORMS:
+            raise ValueError(f"noise_form must be one of {', '.join(NOISE_FORMS)}, got {noise_form!r}")
+        self.noise_form = noise_form
+        self.switches = np.zeros(N_SWITCHES, dtype=np.int64)
         for name in adapt:
             self.switches[SWITCH_NAMES.index(name)] = 1
         self.switches[FORGET_COV] = bool(forget_covariance)
+        self.switches[RESIDUAL] = NOISE_FORMS.index(noise_form)
         self._Ph, self._old = np.zeros(p), np.zeros(p)
         self.reset()
 

@@ -41,7 +41,8 @@ def shipped(tmp_path=None, **options):
 
 
 def run(cfg, controller, seconds=3.0, friction=0.0):
-    """Per tick: t, q, q_des and the command; the controller every ``divisor`` ticks."""
+    """Per tick: t, q, q_des, the command, and the filter's R̂ and largest Q̂ entry per joint;
+    the controller every ``divisor`` ticks."""
     model = cfg.model
     n, dt = model.nq, cfg.loop.period
     q0 = cfg.sim.vector("initial_q", n)
@@ -54,7 +55,8 @@ def run(cfg, controller, seconds=3.0, friction=0.0):
     controller.reset(state)
     steps = int(round(seconds / dt))
     log = {"t": np.arange(steps) * dt, "q": np.zeros((steps, n)), "q_des": np.zeros((steps, n)),
-           "tau": np.zeros((steps, n))}
+           "tau": np.zeros((steps, n)), "R_hat": np.zeros((steps, n)), "Q_hat": np.zeros((steps, n))}
+    f = controller.filter
     for k in range(steps):
         t = k * dt
         state.position[:], state.velocity[:] = plant.q, plant.qd
@@ -62,6 +64,7 @@ def run(cfg, controller, seconds=3.0, friction=0.0):
         if k % controller.divisor == 0:
             controller.update(t, state, ref, cmd)
         log["q"][k], log["q_des"][k], log["tau"][k] = plant.q, ref.q, cmd.tau_ff
+        log["R_hat"][k], log["Q_hat"][k] = f.R_hat, f.Q_hat.max(axis=0)
         plant.tau_cmd[:] = cmd.tau_ff
         plant.step(dt)
     return log

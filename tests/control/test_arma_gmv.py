@@ -22,9 +22,11 @@ def test_registered_and_built_from_the_shipped_config():
     assert "arma_gmv" in CONTROLLERS
     cfg, c = shipped()
     assert c.order.na == c.order.nb == 2 and c.order.d == 1 and c.divisor == 20
-    assert c.filter.lam == 0.98 and list(c.filter.switches[:4]) == [1, 0, 0, 0]
-    assert c.filter.theta0[:, 1] == pytest.approx([2.0, -1.0, 4.82e-5, 4.82e-5, 0.0])
-    assert c.joint_params[0] == pytest.approx([7.4e-10, 2.3e-10, 8.5e-9])
+    # the paper's adaptive filter: r̂, R̂ and Q̂ adapted (q̂ off), in the residual form
+    assert c.filter.lam == 0.98 and list(c.filter.switches[:4]) == [1, 1, 0, 1]
+    assert c.filter.noise_form == "residual"
+    assert c.filter.theta0[:, 1] == pytest.approx([2.0, -1.0, 5.784e-5, 5.784e-5, 0.0])
+    assert c.joint_params[0] == pytest.approx([1.06e-9, 3.35e-10, 1.22e-8])
 
 
 @pytest.mark.parametrize("key, value", [
@@ -37,6 +39,7 @@ def test_registered_and_built_from_the_shipped_config():
     ("theta0", "[2.0, -1.0, nan, 1e-4, 0.0]"),
     ("P0", "-1.0"), ("R0", "-inf"), ("R_min", "0.0"),
     ("adapt", "{ r = true, x = true }"), ("adapt", "{ r = 1 }"),
+    ("noise_form", '"vb"'), ("noise_form", "1"),
 ])
 def test_bad_option_exits_2_naming_the_key(tmp_path, key, value):
     with pytest.raises(ConfigError) as err:
@@ -140,12 +143,11 @@ def test_update_allocates_nothing():
 
 
 def test_drift_mean_adaptation_diverges_in_closed_loop_and_estimates_stay_bounded_without_it(tmp_path):
-    """The documented failure of (26): q̂ integrates Kε. With the paper's full filter (r̂, R̂, q̂)
-    on the paper's run it drags every b̂0 down steadily (measured: ×0.68, 0.36, 0.03 of b̂0(0) for
-    the waist after 1, 2, 3 s), b̂0 changes sign at ≈ 3.5 s and the arm runs away (errors of 10³
-    degrees at 4 s). (With R̂ fixed it drifts linearly instead: â off by 0.09, 0.16, 0.22, 0.31
-    after 1-4 s, 0.64 after 8 s.) With q̂ off (the shipped job) the estimates settle: b̂0 within
-    ×0.77-0.97 of θ̂(0), â within 0.015 of (2, −1), the error below 0.3°."""
+    """The documented failure of (26): q̂ integrates Kε. With r̂, R̂ and q̂ adapted (Q̂ off) on the
+    paper's run it drags the b̂0 down steadily (measured: ×0.51, 0.02, −0.47 of b̂0(0) for the
+    waist after 1, 2, 3 s; the elbow's changes sign at 1.2 s) and the arm runs away (errors of
+    10⁴ degrees at 4 s). With q̂ off (the shipped job: r̂, R̂, Q̂) the estimates settle: b̂0 within
+    ×0.92-0.98 of θ̂(0), â within 0.002 of (2, −1), the error below 0.2°."""
     cfg, on = shipped(tmp_path, adapt="{ r = true, R = true, q = true, Q = false }")
     log = run(cfg, on, seconds=4.0)
     b0_ratio = on.filter.theta[2] / on.filter.theta0[2]
