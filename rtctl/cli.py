@@ -237,7 +237,7 @@ def _parser() -> argparse.ArgumentParser:
                             "grabber: framegrabber driver, unpacking, marker, camera simulator; "
                             "switching: the loop untouched, then with 10 controller switches or gain sets per second; "
                             "plants: one period of rtctl's plant and of MuJoCo's; "
-                            "cell: cell-wide e-stop latency over Zenoh with 1 and 2 robots, state messages per "
+                            "cell: cell-wide e-stop latency over Zenoh with 1, 2 and 4 robots, state messages per "
                             "second, the loops' cost (the `cell` extra)")
     bench.add_argument("--json", metavar="PATH", help="also write the results as JSON")
     bench.add_argument("--robot", default=None, help="robot description (default: the shipped PUMA 560)")
@@ -246,7 +246,7 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument("--seconds", type=_SECONDS, default=10.0,
                        help="duration for `bench loop` and `bench switching` (s; `live`: per run)")
     bench.add_argument("--trials", type=_count, default=100, metavar="N",
-                       help="`bench cell`: cell-wide e-stops per cell size (1 and 2 robots; default 100)")
+                       help="`bench cell`: cell-wide e-stops per cell size (1, 2 and 4 robots; default 100)")
     bench.add_argument("--minutes", type=_SECONDS, default=10.0,
                        help="duration for `bench soak` (default 10; --config: another HIL configuration)")
 
