@@ -6,6 +6,18 @@ import time
 import numpy as np
 
 
+def compiled_us(loop, args, count: int = 2000) -> float:
+    """Median µs per call of a kernel inside ``loop(count, *args)`` (a numba loop calling it
+    ``count`` times: the arithmetic with no call from Python), over 7 runs after a warm-up."""
+    loop(1, *args)
+    samples = []
+    for _ in range(7):
+        t0 = time.perf_counter_ns()
+        loop(count, *args)
+        samples.append((time.perf_counter_ns() - t0) / count / 1e3)
+    return float(np.median(samples))
+
+
 def median_us(fn, repeats: int, batch: int) -> float:
     """Median µs per call of ``fn`` over batches of ``batch`` calls, after a warm-up batch."""
     for _ in range(batch):

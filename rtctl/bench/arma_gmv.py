@@ -5,11 +5,10 @@ same filter with its adaptations off, in numpy). Goals: ≤ 4 µs per 6-joint up
 and per joint ≥ 20× faster than filterpy."""
 from __future__ import annotations
 
-import time
 
 import numpy as np
 
-from rtctl.bench import median_us
+from rtctl.bench import compiled_us, median_us
 from rtctl.compiled import kernel
 from rtctl.control.arma_gmv import ArmaGmv, arma_gmv_kernel
 from rtctl.control.base import Reference
@@ -54,13 +53,7 @@ def _time_update(n: int, repeats: int) -> dict:
 
     tick_us = median_us(tick, repeats, BATCH)
     args = (c.iset, state.position, ref.packed, c.filter.state, c.work, cmd.tau_ff)
-    _kernel_loop(1, *args)
-    count, samples = 2000, []
-    for _ in range(7):
-        t0 = time.perf_counter_ns()
-        _kernel_loop(count, *args)
-        samples.append((time.perf_counter_ns() - t0) / count / 1e3)
-    return {"n": n, "tick_us": tick_us, "compiled_us": float(np.median(samples))}
+    return {"n": n, "tick_us": tick_us, "compiled_us": compiled_us(_kernel_loop, args)}
 
 
 def _time_filterpy(repeats: int) -> float | None:
@@ -96,7 +89,7 @@ def format_rows(result: dict) -> list[str]:
     for r in result["rows"]:
         lines.append(f"{r['n']:>7} | {r['tick_us']:7.2f} | {r['compiled_us']:9.2f}")
     fp = result["filterpy_predict_update_us"]
-    lines.append(f"filterpy KalmanFilter predict+update, one joint: "
+    lines.append("filterpy KalmanFilter predict+update, one joint: "
                  + (f"{fp:.1f} µs; per joint ours {result['per_joint_us']:.2f} µs: {result['speedup_vs_filterpy']:.0f}×"
                     if fp is not None else "not installed"))
     lines.append("goals: " + ", ".join(f"{k}: {'yes' if v else ('n/a' if v is None else 'NO')}"

@@ -22,7 +22,7 @@ import time
 import numpy as np
 from numba import njit
 
-from rtctl.bench import median_us
+from rtctl.bench import compiled_us, median_us
 from rtctl.control.base import Reference
 from rtctl.control.computed_torque import ComputedTorque, computed_torque_kernel
 from rtctl.control.pd_gravity import PDGravity, pd_gravity_kernel
@@ -86,16 +86,6 @@ def _pd_loop(count, joint, geom, params, gravity, X, body, zero, q, qd, ref, kp,
         pd_gravity_kernel(joint, geom, params, gravity, X, body, zero, q, qd, ref, kp, kd, g, tau, mask, tau_out)
 
 
-def _compiled_us(loop, args) -> float:
-    loop(1, *args)
-    count, samples = 2000, []
-    for _ in range(7):
-        t0 = time.perf_counter_ns()
-        loop(count, *args)
-        samples.append((time.perf_counter_ns() - t0) / count / 1e3)
-    return float(np.median(samples))
-
-
 def _time_model_based(model, state, repeats) -> dict:
     """Computed torque and PD + gravity on ``model``: update() from Python against its kernel in
     a numba loop (the gap is what the call costs: the goal is ≤ 1.5 µs)."""
@@ -112,7 +102,7 @@ def _time_model_based(model, state, repeats) -> dict:
                                           pd.data.X, pd.data.body, pd.data.zero, js.position, js.velocity,
                                           ref.packed, pd.kp, pd.kd, pd.g, pd.tau, pd.mask, cmd.tau_ff))):
         tick = _median_us(lambda c=c: c.update(0.0, js, ref, cmd), repeats)
-        compiled = _compiled_us(loop, args)
+        compiled = compiled_us(loop, args)
         rows[name] = {"tick_us": tick, "compiled_us": compiled, "call_us": tick - compiled}
     return rows
 
@@ -226,7 +216,7 @@ def format_table(result: dict) -> str:
     g, gc = result["t24_over_t6"], result["t24_over_t6_compiled"]
     lines.append(f"t24/t6: C* {g['cstar']:.2f} (compiled {gc['cstar']:.2f}), classic {g['classic']:.2f} "
                  f"(compiled {gc['classic']:.2f})")
-    lines.append(f"update() from Python − its kernel in a numba loop (µs; goal ≤ 1.5): "
+    lines.append("update() from Python − its kernel in a numba loop (µs; goal ≤ 1.5): "
                  + ", ".join(f"{r['robot']} C* {r['cstar']['tick_us'] - r['cstar']['compiled_us']:.2f} "
                              f"classic {r['classic']['tick_us'] - r['classic']['compiled_us']:.2f} "
                              f"CT {r['model_based']['computed_torque']['call_us']:.2f} "

@@ -17,25 +17,30 @@ from rtctl.trajectory import JointLimits, through_waypoints
 SHIPPED = Path(__file__).resolve().parents[2] / "configs" / "puma3_arma_gmv_sim.toml"
 
 
+def replaced(text, options):
+    """The shipped TOML ``text`` with the (possibly multi-line) values of ``options``' keys
+    replaced, its robot description made absolute (the copy lives elsewhere)."""
+    lines, skip = [], 0
+    for line in text.splitlines():
+        code = line.split("#", 1)[0]
+        if skip:  # inside a replaced multi-line array
+            skip += code.count("[") - code.count("]")
+            continue
+        key = code.split("=", 1)[0].strip()
+        if key in options and "=" in code:
+            lines.append(f"{key} = {options[key]}")
+            skip = code.count("[") - code.count("]")
+        else:
+            lines.append(line)
+    return "\n".join(lines).replace('description = "robots/', f'description = "{SHIPPED.parent}/robots/')
+
+
 def shipped(tmp_path=None, **options):
     """(config, controller) of the shipped job; ``options`` replace ``key = value`` lines."""
     path = SHIPPED
     if options:
-        lines, skip = [], 0
-        for line in SHIPPED.read_text().splitlines():
-            code = line.split("#", 1)[0]
-            if skip:  # inside a replaced multi-line array
-                skip += code.count("[") - code.count("]")
-                continue
-            key = code.split("=", 1)[0].strip()
-            if key in options and "=" in code:
-                lines.append(f"{key} = {options[key]}")
-                skip = code.count("[") - code.count("]")
-            else:
-                lines.append(line)
-        text = "\n".join(lines).replace('description = "robots/', f'description = "{SHIPPED.parent}/robots/')
         path = tmp_path / "run.toml"
-        path.write_text(text)
+        path.write_text(replaced(SHIPPED.read_text(), options))
     cfg = load_config(path)
     return cfg, build(cfg).controllers[0]
 

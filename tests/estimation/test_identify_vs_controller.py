@@ -22,10 +22,10 @@ from pathlib import Path
 
 import numpy as np
 
+from arma_loop import SHIPPED, replaced
 from rtctl.telemetry import read
 
 ROOT = Path(__file__).resolve().parents[2]
-SHIPPED = ROOT / "configs" / "puma3_arma_gmv_sim.toml"
 BEFORE = {"adapt": "{ r = true, R = false, q = false, Q = false }",
           "theta0": "[[2.0, -1.0, 8.58e-5, 8.58e-5, 0.0], [2.0, -1.0, 4.82e-5, 4.82e-5, 0.0], "
                     "[2.0, -1.0, 2.915e-4, 2.915e-4, 0.0]]", "rho": "[7.4e-10, 2.3e-10, 8.5e-9]",
@@ -39,7 +39,7 @@ def _run_and_identify(tmp_path, options=None):
     config, run, out = SHIPPED, tmp_path / "run.msgpack", tmp_path / "ident.json"
     if options:
         config = tmp_path / "job.toml"
-        config.write_text(_replaced(SHIPPED.read_text(), options))
+        config.write_text(replaced(SHIPPED.read_text(), options))
     r = subprocess.run([sys.executable, "-m", "rtctl.cli", "run", str(config), "--realtime-factor", "0", "--duration",
                         "10", "--telemetry", str(run), "--socket", str(tmp_path / "s.sock")], capture_output=True,
                        text=True, timeout=300, cwd=ROOT)
@@ -48,23 +48,6 @@ def _run_and_identify(tmp_path, options=None):
                         str(out)], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert r.returncode == 0, r.stderr[-2000:]
     return np.array(json.loads(out.read_text())["theta"]), read(run)
-
-
-def _replaced(text, options):
-    """The TOML ``text`` with the (possibly multi-line) values of ``options``' keys replaced."""
-    lines, skip = [], 0
-    for line in text.splitlines():
-        code = line.split("#", 1)[0]
-        if skip:  # inside a replaced multi-line array
-            skip += code.count("[") - code.count("]")
-            continue
-        key = code.split("=", 1)[0].strip()
-        if key in options and "=" in code:
-            lines.append(f"{key} = {options[key]}")
-            skip = code.count("[") - code.count("]")
-        else:
-            lines.append(line)
-    return "\n".join(lines).replace('description = "robots/', f'description = "{SHIPPED.parent}/robots/')
 
 
 def test_identify_on_the_shipped_run_finds_the_double_integrator(tmp_path):
