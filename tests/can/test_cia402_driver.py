@@ -199,7 +199,9 @@ def test_deactivate_leaves_every_drive_disabled_even_after_the_bus_was_lost(rig)
 
 
 def test_a_drive_late_at_deactivate_is_awaited_and_one_never_seen_off_is_an_error(slow_rig):
-    r = slow_rig()
+    # (deactivate waits drive_timeout / 2 of wall time: 0.2 s, not the default 20 ms, so that a
+    # loaded machine is not what decides — the drives' own time is the rig's, unaffected)
+    r = slow_rig(drive_timeout=0.2)
     r.activate()
     r.tick()
     r.hold = True
