@@ -63,9 +63,8 @@ def gate_step(knots, coeffs, t, expiry, rows, cols, pieces, accel, par, st, entr
     nz = entry.shape[0]
     dt = t - st[T_LAST] if st[STARTED] != 0.0 else 0.0
     st[T_LAST], st[STARTED] = t, 1.0
-    if dt < 0.0:
-        dt = 0.0
     step, margin, cap = par[STEP], par[MARGIN], 1.0 / par[RAMP]
+    dt = min(max(dt, 0.0), step)  # (skipped periods: the path slows rather than jumps past a border)
     for z in range(nz):
         entry[z] = np.inf
         room[z] = np.inf
