@@ -20,7 +20,7 @@ NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,62}")  # a single Zenoh key chunk: n
 LOOPBACK = "127.0.0.1"
 DEFAULT_STATE_RATE_HZ = 100.0
 DEFAULT_STATUS_RATE_HZ = 1.0
-DEFAULT_LEASE_S = 4.0
+DEFAULT_LEASE_S = 5.0
 DEFAULT_LEASE_MARGIN_S = 0.25
 ARBITER = "arbiter"  # the key chunk of the shared zones' arbiter (rtctl/<cell>/arbiter/cmd/lease): no robot's name
 

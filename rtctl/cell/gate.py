@@ -142,8 +142,11 @@ class Gate:
 
     @property
     def t_end(self) -> float:
-        """When the path would end from now at full rate (a waiting path has not ended)."""
-        return float(self.st[T_LAST] + max(0.0, self.inner.t_end - self.st[TAU]))
+        """When the path would end from now at full rate (a waiting path has not ended); once
+        it has ended, a time at or before then."""
+        if self.finished:
+            return min(float(self.st[T_LAST]), self.inner.t_end)
+        return float(self.st[T_LAST] + self.inner.t_end - self.st[TAU])
 
     def state_at(self, t: float):
         """The reference at loop time ``t``, assuming full rate from now on; while the gate

@@ -1,9 +1,8 @@
 """Two PUMAs whose jobs cross one shared zone, and the checks made on their telemetry files.
 
-Each robot's job swings its waist through its region of the zone W and back, ``cycles`` times,
-resting ``dwell`` s at each end (long enough for the path ahead to leave the gate's sight, so
-the lease is released and the other robot gets its turn). Whether a robot is inside W is
-computed here from the recorded q and the region's box, independently of the daemon's flags."""
+Each robot's job (a ``move`` sent to both at once) swings its waist through its region of the
+zone W and back. Whether a robot is inside W is computed here from the recorded q and the
+region's box, independently of the daemon's flags."""
 from __future__ import annotations
 
 import json
@@ -23,24 +22,28 @@ FAR = 1.1  # rad of waist: beyond the region
 REGIONS = {"r0": (0.3, 0.8), "r1": (-0.8, -0.3)}  # waist; shoulder 0.2 … 0.9 for both
 SHOULDER = (0.2, 0.9)
 SIGN = {"r0": 1.0, "r1": -1.0}
-LEASE_S, LEASE_MARGIN_S = 4.0, 0.25
+LEASE_S, LEASE_MARGIN_S = 5.0, 0.25
 
 
-def job(folder: Path, robot: str, cycles: int, dwell: float) -> Path:
-    far = list(READY)
-    far[0] = SIGN[robot] * FAR
-    waypoints = [far, READY] * cycles
-    base = (REPO / "configs" / "cell" / "puma560_cell_sim.toml").read_text()
-    base = base.replace('description = "../robots/puma560.toml"',
-                        f'description = "{REPO / "configs" / "robots" / "puma560.toml"}"')
-    path = folder / f"{robot}.toml"
-    path.write_text(base + f"\n[trajectory]\nwaypoints = {json.dumps(waypoints)}\nvelocity_scale = 0.4\n"
-                           f"dwell = {dwell}\n")
-    return path
+def job(robot: str, cycles: int) -> dict:
+    """The ``move`` fields of ``robot``'s job, ``cycles`` times: from the ready pose into its
+    region of W, a pause there (1 s: work at the fixture), on through W to beyond it, a pause,
+    straight back through W, a pause (2 s at each end: long enough for the path ahead to leave
+    the gate's sight, so the lease is released and the other robot gets its turn)."""
+    centre, far = list(READY), list(READY)
+    centre[0], far[0] = SIGN[robot] * 0.55, SIGN[robot] * FAR
+    waypoints, times, t = [], [], 0.0
+    for _ in range(cycles):
+        for point, leg, pause in ((centre, 1.0, 1.0), (far, 1.0, 2.0), (READY, 1.3, 2.0)):
+            t += leg
+            waypoints += [point, point]
+            times += [t, t + pause]
+            t += pause
+    return {"waypoints": waypoints, "times": times}
 
 
-def write_zone_cell(folder: Path, cycles: int, dwell: float = 2.0) -> Path:
-    """A two-robot cell file whose robots run the crossing jobs, with the shared zone."""
+def write_zone_cell(folder: Path) -> Path:
+    """A two-robot cell file (robots r0, r1 holding the ready pose) with the shared zone."""
     zone = f'''
 [leases]
 duration_s = {LEASE_S}
@@ -55,14 +58,7 @@ joints = ["waist", "shoulder"]
 lo = [{lo}, {SHOULDER[0]}]
 hi = [{hi}, {SHOULDER[1]}]
 ''' for r, (lo, hi) in REGIONS.items())
-    path = write_cell(folder, 2, extra=zone)
-    text = path.read_text()
-    for r in REGIONS:  # each robot its own job
-        text = text.replace(f'name = "{r}"\nconfig = "{REPO / "configs" / "cell" / "puma560_cell_sim.toml"}"',
-                            f'name = "{r}"\nconfig = "{job(folder, r, cycles, dwell)}"')
-    path.write_text(text)
-    assert text.count("[trajectory]") == 0 and str(folder / "r0.toml") in text
-    return path
+    return write_cell(folder, 2, extra=zone)
 
 
 def status(run_dir: Path, robot: str) -> dict | None:
@@ -146,5 +142,5 @@ def arbiter_events(run_dir: Path) -> list[dict]:
     return out
 
 
-__all__ = ["free_port", "write_zone_cell", "status", "wait_for", "Track", "closest_approach", "never_both_inside",
+__all__ = ["free_port", "job", "write_zone_cell", "status", "wait_for", "Track", "closest_approach", "never_both_inside",
            "arbiter_events", "LEASE_S", "LEASE_MARGIN_S"]
