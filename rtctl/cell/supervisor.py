@@ -3,7 +3,8 @@ stopped together (docs/cell.md, "Processes").
 
 Each daemon is an ordinary ``rtctl run`` with its own control socket, telemetry file, summary
 and log in the cell's ``run_dir``; its bridge (:mod:`rtctl.cell.bridge`) is started once the
-daemon answers on its socket. Every child gets its own session (a Ctrl-C at the terminal
+daemon answers on its socket; with shared zones, each daemon enforces them (``--cell``) and the
+arbiter (:mod:`rtctl.cell.arbiter`) starts once every bridge runs. Every child gets its own session (a Ctrl-C at the terminal
 reaches only this process, which then stops them in order) and SIGTERM should this process
 die (Linux's parent-death signal): nothing is left running behind it.
 
