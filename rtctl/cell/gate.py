@@ -8,17 +8,19 @@ q̈(τ)·s² + q̇(τ)·ṡ with dτ/dt = s. Every tick (:func:`gate_step`, one 
 * the reference's path ahead, τ … τ + L, is sampled every Δτ and each sample's depth in every
   shared zone is measured; a zone's *entry* is the offset of the first sample within the gate
   margin m_g of it (∞: none within L);
-* braking from rate s to 0 at the ramp rate 1/T_r covers s·dt + s²·T_r/2 of trajectory time;
-  the rate rises towards 1 when that stretch (for the raised rate, plus one Δτ) enters no zone
-  whose lease is missing, and falls otherwise — so the reference comes to rest before the
-  first zone it may not enter, and moves on once the lease arrives;
+* braking at the rate change b the path admits (|q̇ⱼ|·b ≤ aⱼ/2 for every speed joint j reaches
+  between two samples) lowers s² by 2·b per unit of τ, so the braking room up to the last
+  sample before a zone is Σ 2·b·Δτ; the rate rises towards 1 while s² fits in the room before
+  every zone whose lease is missing, is held at √room when it no longer would, and falls at
+  the admissible rate when it must — so the reference comes to rest before the first zone it
+  may not enter, and moves on once the lease arrives;
 * samples Δτ apart with the reference's speed at most ‖v_max‖ (over the joints the zones
   involve) certify the path between them to within ‖v_max‖·Δτ/2 = m_g/2 (depth is
   1-Lipschitz): a reference at rest at a border keeps at least m_g/2 from the zone.
 
 A zone counts as held while ``t < expiry`` (the loop time the lease ends, less the horizon the
-robot needs to stop: :mod:`rtctl.cell.shared`). The ramp T_r = 2·maxⱼ v_max,j/a_max,j keeps the
-added acceleration q̇·ṡ within a_max/2.
+robot needs to stop: :mod:`rtctl.cell.shared`). The added acceleration q̇·ṡ stays within a/2;
+the rate changes from 0 to 1 in no fewer than ``RAMP_TICKS`` ticks.
 """
 from __future__ import annotations
 
@@ -90,12 +92,12 @@ def gate_step(knots, coeffs, t, expiry, rows, cols, pieces, accel, par, st, entr
             tmp[3, j] = tmp[1, j]
     s = st[RATE]
     s_try = min(1.0, s + b_first * dt)
-    blocked = False
+    s_new = s_try
     for z in range(nz):
         if held[z] == 0.0 and s_try * s_try > room[z]:
-            blocked = True
-            waiting[z] = 1.0
-    s_new = max(0.0, s - b_first * dt) if blocked else s_try
+            waiting[z] = 1.0  # the highest rate that can still stop in the room (no bang-bang at its edge)
+            s_new = min(s_new, math.sqrt(room[z]) if room[z] > 0.0 else 0.0)
+    s_new = max(s_new, s - b_first * dt, 0.0)
     s_dot = (s_new - s) / dt if dt > 0.0 else 0.0
     st[TAU] += 0.5 * (s + s_new) * dt
     st[RATE] = s_new

@@ -59,9 +59,7 @@ class SharedZones:
         if self.clearance <= guard_margin:
             raise ValueError(f"gate margin {gate_margin!r} too small for these speeds (the sampled look-ahead "
                              f"certifies only {self.clearance:.4g} rad, not more than the guard margin)")
-        # the gate counts a lease as gone this long before its end: the time its reference needs to
-        # come to rest from full speed (rate falls at ≥ a/(2·v) per second, gate.py)
-        self.horizon = 2.0 * float(np.max(limits.v_max / limits.a_max)) + 3 * dt
+        self.horizon = stopping_horizon(limits, dt)
         if not lease_s > 2 * self.horizon:
             raise ValueError(f"a lease of {lease_s:g} s: expected more than {2 * self.horizon:.2f} s (twice the "
                              f"{self.horizon:.2f} s this robot's path needs to come to rest; leases.duration_s)")
@@ -172,6 +170,13 @@ class SharedZones:
             raise RtctlError(f"no shared zone {name!r} here (this robot's: {', '.join(self.names)})") from None
 
 
+def stopping_horizon(limits, dt: float) -> float:
+    """How long before a lease's end the gate counts it gone: the time its reference needs to
+    come to rest from full speed (the rate falls at ≥ a/(2·v) per second, gate.py), plus three
+    periods."""
+    return 2.0 * float(np.max(limits.v_max / limits.a_max)) + 3 * dt
+
+
 class ZoneGuard:
     """The safety stage's guard: the robot's own (may be None), then each shared zone whose
     lease is not held (the stopping-distance check, action "stop")."""
@@ -234,6 +239,10 @@ def for_run(args, cfg, limits):
     if cfg.loop.realtime_factor != 1.0:
         raise ConfigError(cfg.file, "loop.realtime_factor", "1 for a robot of a cell with shared zones "
                                                             "(leases run on the wall clock)")
+    if not cell.lease_s > 2 * stopping_horizon(limits, cfg.loop.period):
+        raise ConfigError(path, "leases.duration_s", f"more than {2 * stopping_horizon(limits, cfg.loop.period):.2f} s "
+                                                     f"(twice the time robot {robot!r} needs to stop its path), "
+                                                     f"got {cell.lease_s:g}")
     g = cfg.guard
     margins = {} if g is None else {"gate_margin": g.scene.margin or DEFAULT_GATE_MARGIN,
                                     "guard_margin": min(g.guard_margin, (g.scene.margin or DEFAULT_GATE_MARGIN) / 2),
