@@ -145,3 +145,17 @@ def test_never_two_robots_believe_they_hold_the_zone_whatever_the_delays():
                 t.confirm("W", robot, arbiter_now, held=held, inside=stuck[robot] or held)
             believers = [r for r in "ab" if valid[r] > now or stuck[r]]
             assert len(believers) <= 1, (seed, now, valid, stuck)
+
+
+def test_the_arbiter_validates_every_request():
+    from rtctl.cell.arbiter import parse_request
+
+    ok = parse_request(b'{"op": "release", "zone": "W", "robot": "a", "seq": 4}')
+    assert ok == {"op": "release", "zone": "W", "robot": "a", "seq": 4}
+    assert parse_request(b'{"op": "acquire", "zone": "W", "robot": "a"}')["seq"] == 0
+    for bad in (b"", b"[]", b"not json", b'{"op": "steal", "zone": "W", "robot": "a"}',
+                b'{"op": "acquire", "zone": "W/x", "robot": "a"}', b'{"op": "acquire", "zone": "W", "robot": 3}',
+                b'{"op": "release", "zone": "W", "robot": "a", "seq": -1}',
+                b'{"op": "acquire", "zone": "W", "robot": "a", "until": 99}'):
+        with pytest.raises(ValueError):
+            parse_request(bad)

@@ -167,3 +167,14 @@ def test_a_lease_shorter_than_twice_the_stopping_horizon_is_a_config_error(setup
     with pytest.raises(ConfigError) as e:
         for_run(args, cfg, limits)
     assert e.value.key_path == "--cell-robot"
+
+
+def test_cell_status_shows_who_holds_and_who_waits():
+    from rtctl.cell.commands import format_replies
+
+    base = {"ok": True, "t": 1.0, "verdict": "OK", "estopped": False, "faults": []}
+    table = format_replies("c", {"r0": base | {"zones": {"fixture": {"held": True, "waiting": False}}},
+                                 "r1": base | {"zones": {"fixture": {"held": False, "waiting": True}}}})
+    lines = table.splitlines()
+    assert "shared zones" in lines[1]
+    assert "fixture held" in lines[2] and "fixture waiting" in lines[3]
