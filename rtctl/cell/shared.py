@@ -123,6 +123,10 @@ class SharedZones:
         if expires_ns <= now_ns:
             return {"ok": False, "error": f"lease {self.names[z]!r}: grant {seq} expired "
                                           f"{(now_ns - expires_ns) * 1e-6:.1f} ms before it arrived"}
+        if expires_ns > now_ns + self.lease_s * 1e9:
+            return {"ok": False, "error": f"lease {self.names[z]!r}: grant {seq} would run "
+                                          f"{(expires_ns - now_ns) * 1e-9:.3f} s, longer than the cell's "
+                                          f"{self.lease_s:g} s leases"}
         self.floor[z] = self.seq[z] = seq
         # (tick k starts at or after tick0 + k·period: two periods cover the tick that decides)
         self.expiry[z] = (expires_ns - self.tick0_ns) * 1e-9 - 2 * self.dt

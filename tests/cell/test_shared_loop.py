@@ -86,6 +86,8 @@ def test_a_grant_is_held_until_its_expiry_and_stale_or_late_grants_are_refused(s
     assert not z.lease({"zone": "fixture", "seq": 2, "expires_ns": now + 9_000_000_000}, 0.0, READY,
                        np.zeros(6))["ok"]  # not newer
     assert not z.lease({"zone": "fixture", "seq": 3, "expires_ns": now - 1}, 0.0, READY, np.zeros(6))["ok"]
+    assert not z.lease({"zone": "fixture", "seq": 3, "expires_ns": now + 6_000_000_000}, 0.0, READY,
+                       np.zeros(6))["ok"]  # longer than a lease can be (5 s)
     inside = READY.copy()
     inside[0] = 0.5
     assert not z.lease({"zone": "fixture", "seq": 2, "expires_ns": 0}, 0.0, inside, np.zeros(6))["ok"]
