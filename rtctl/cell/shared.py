@@ -13,9 +13,10 @@ boundary. Per tick the loop compares numbers:
   (:mod:`rtctl.cell.gate`).
 
 ``expiry`` is loop time: the holder's own expiry (from when its bridge *sent* the request,
-CLOCK_MONOTONIC) placed on the loop's clock (tick k is due at tick0 + k·period) and moved
-earlier by the horizon the robot needs to come to rest (the gate's ramp plus three periods),
-so that a lease about to end already counts as gone.
+CLOCK_MONOTONIC) placed on the loop's clock (tick k is due at tick0 + k·period), less two
+periods for the tick that decides. The gate's ``gate_expiry`` is earlier by the horizon its
+path needs to come to rest (:func:`stopping_horizon`), so that a path does not start into a
+zone on a lease about to end.
 """
 from __future__ import annotations
 
