@@ -60,10 +60,10 @@ class SharedZones:
         if self.clearance <= guard_margin:
             raise ValueError(f"gate margin {gate_margin!r} too small for these speeds (the sampled look-ahead "
                              f"certifies only {self.clearance:.4g} rad, not more than the guard margin)")
-        self.horizon = stopping_horizon(limits, dt)
+        self.horizon = stopping_horizon(limits, dt, float(self.gate_par[1]))
         if not lease_s > 2 * self.horizon:
-            raise ValueError(f"a lease of {lease_s:g} s: expected more than {2 * self.horizon:.2f} s (twice the "
-                             f"{self.horizon:.2f} s this robot's path needs to come to rest; leases.duration_s)")
+            raise LeaseTooShort(f"more than {2 * self.horizon:.2f} s (twice the {self.horizon:.2f} s this robot's "
+                                f"path needs to come to rest), got {lease_s:g}")
         self.lease_s, self.dt = float(lease_s), float(dt)
         nz = len(self.names)
         self.expiry = np.full(nz, -np.inf)  # loop time; the guard lets the robot in while t < expiry
@@ -175,11 +175,15 @@ class SharedZones:
             raise RtctlError(f"no shared zone {name!r} here (this robot's: {', '.join(self.names)})") from None
 
 
-def stopping_horizon(limits, dt: float) -> float:
+class LeaseTooShort(ValueError):
+    """The cell's lease is too short for this robot's path to stop within it."""
+
+
+def stopping_horizon(limits, dt: float, step: float) -> float:
     """How long before a lease's end the gate counts it gone: the time its reference needs to
-    come to rest from full speed (the rate falls at ≥ a/(2·v) per second, gate.py), plus three
-    periods."""
-    return 2.0 * float(np.max(limits.v_max / limits.a_max)) + 3 * dt
+    come to rest from full speed — the rate falls at b ≥ aⱼ/(2·(vⱼ + aⱼ·Δτ)) per second
+    (gate.py), so within maxⱼ 2·vⱼ/aⱼ + 2·Δτ — plus three periods."""
+    return 2.0 * float(np.max(limits.v_max / limits.a_max)) + 2 * step + 3 * dt
 
 
 class ZoneGuard:
@@ -244,10 +248,6 @@ def for_run(args, cfg, limits):
     if cfg.loop.realtime_factor != 1.0:
         raise ConfigError(cfg.file, "loop.realtime_factor", "1 for a robot of a cell with shared zones "
                                                             "(leases run on the wall clock)")
-    if not cell.lease_s > 2 * stopping_horizon(limits, cfg.loop.period):
-        raise ConfigError(path, "leases.duration_s", f"more than {2 * stopping_horizon(limits, cfg.loop.period):.2f} s "
-                                                     f"(twice the time robot {robot!r} needs to stop its path), "
-                                                     f"got {cell.lease_s:g}")
     g = cfg.guard
     margins = {} if g is None else {"gate_margin": g.scene.margin or DEFAULT_GATE_MARGIN,
                                     "guard_margin": min(g.guard_margin, (g.scene.margin or DEFAULT_GATE_MARGIN) / 2),
@@ -255,6 +255,8 @@ def for_run(args, cfg, limits):
     try:
         return SharedZones(zones, cfg.model, limits, cfg.loop.period, cell.lease_s, damping=cfg.safety.damping,
                            stiffness=cfg.safety.hold_stiffness, **margins)
+    except LeaseTooShort as e:
+        raise ConfigError(path, "leases.duration_s", f"{e} for robot {robot!r}") from None
     except ValueError as e:
         raise ConfigError(path, "zones", str(e)) from None
 
