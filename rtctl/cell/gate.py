@@ -5,9 +5,10 @@ border, not fail. The :class:`Gate` wraps the running :class:`~rtctl.trajectory.
 and follows it at a rate s ∈ [0, 1] of loop time: the reference is q(τ), q̇(τ)·s,
 q̈(τ)·s² + q̇(τ)·ṡ with dτ/dt = s. Every tick (:func:`gate_step`, one compiled call):
 
-* the reference's path ahead, τ … τ + L, is sampled every Δτ and each sample's depth in every
-  shared zone is measured; a zone's *entry* is the offset of the first sample within the gate
-  margin m_g of it (∞: none within L);
+* the reference's path ahead, τ … τ + L, is sampled every Δτ (on a fixed grid: each sample is
+  measured once, when it comes into sight) and each sample's depth in every shared zone is
+  kept; a zone's *entry* is the offset of the first sample within the gate margin m_g of it
+  (∞: none within L);
 * braking at the rate change b the path admits (|q̇ⱼ|·b ≤ aⱼ/2 for every speed joint j reaches
   between two samples) lowers s² by 2·b per unit of τ, so the braking room up to the last
   sample before a zone is Σ 2·b·Δτ; the rate rises towards 1 while s² fits in the room before
@@ -32,9 +33,10 @@ from rtctl.compiled import kernel
 from rtctl.guard.kernels import piece_depth
 from rtctl.trajectory.piecewise import _sample
 
-# the gate's state (float array)
-TAU, RATE, T_LAST, STARTED = range(4)
-N_STATE = 4
+# the gate's state (float array): τ, the rate, the last tick's time, whether it ran, the grid's
+# origin τ₀ and the next grid sample to measure
+TAU, RATE, T_LAST, STARTED, TAU0, NEXT_K = range(6)
+N_STATE = 6
 # its parameters
 RAMP, STEP, LOOKAHEAD, MARGIN = range(4)
 N_PARAMS = 4
@@ -56,40 +58,73 @@ def _brake_rate(qd, prev, accel, step, cap):  # pragma: no cover - compiled
 
 
 @kernel(error_model="numpy")
-def gate_step(knots, coeffs, t, expiry, rows, cols, pieces, accel, par, st, entry, room, held, waiting,
+def _measure(knots, coeffs, tau, rows, cols, pieces, out, nz, tmp):  # pragma: no cover - compiled
+    """Sample the path at τ into tmp[0..2]; out[z] = its smallest depth in zone z's pieces."""
+    _sample(knots, coeffs, tau, tmp[0], tmp[1], tmp[2])
+    for z in range(nz):
+        out[z] = np.inf
+    for p in range(pieces.shape[0]):
+        d = piece_depth(rows, cols, pieces[p, 0], pieces[p, 1], tmp[0])
+        if d < out[pieces[p, 2]]:
+            out[pieces[p, 2]] = d
+
+
+@kernel(error_model="numpy")
+def gate_step(knots, coeffs, t, expiry, rows, cols, pieces, accel, par, st, ring, entry, room, held, waiting,
               q, qd, qdd, tmp):  # pragma: no cover - compiled
     """One tick of the gate: update the rate and τ in ``st``, write the reference into q, qd,
     qdd; per zone, ``entry`` (offset of the first sample within the margin, inf: none),
     ``room`` (the braking capacity up to the last sample before it), ``held`` (1/0) and
-    ``waiting`` (1 when that zone is what holds the reference back)."""
-    nz = entry.shape[0]
+    ``waiting`` (1 when that zone is what holds the reference back).
+
+    The samples lie on a grid τ₀ + k·Δτ and are kept in ``ring`` (a row per sample, at k modulo
+    its rows but the last: each zone's depth, then b over the step that ends there): a tick
+    measures only the samples that came into sight since the last one — usually none or one —
+    and the point it is at."""
+    nz, n_ring = entry.shape[0], ring.shape[0] - 1  # (its last row: the point the reference is at)
+    here = ring[n_ring]
     dt = t - st[T_LAST] if st[STARTED] != 0.0 else 0.0
     st[T_LAST], st[STARTED] = t, 1.0
     step, margin, cap = par[STEP], par[MARGIN], 1.0 / par[RAMP]
     dt = min(max(dt, 0.0), step)  # (skipped periods: the path slows rather than jumps past a border)
+    tau = st[TAU]
     for z in range(nz):
         entry[z] = np.inf
         room[z] = np.inf
         held[z] = 1.0 if t < expiry[z] else 0.0
         waiting[z] = 0.0
-    n_samples = int(par[LOOKAHEAD] / step) + 2
-    capacity, b_first = 0.0, cap  # Σ 2·b·Δτ from sample 1 on: s² falls by it when braking at full rate
-    for k in range(n_samples):
-        off = k * step
-        _sample(knots, coeffs, st[TAU] + off, tmp[0], tmp[1], tmp[2])
-        if k > 0:
-            b = _brake_rate(tmp[1], tmp[3], accel, step, cap)
-            if k == 1:
-                b_first = b
-            else:
-                capacity += 2.0 * b * step
-        for p in range(pieces.shape[0]):
-            z = pieces[p, 2]
-            if entry[z] == np.inf and piece_depth(rows, cols, pieces[p, 0], pieces[p, 1], tmp[0]) < margin:
-                entry[z] = off
-                room[z] = capacity if k > 1 else -1.0  # (the last sample before the entry is the border)
+    # the point the reference is at (its zones, and the braking rate until the next grid point)
+    _measure(knots, coeffs, tau, rows, cols, pieces, here, nz, tmp)
+    for z in range(nz):
+        if here[z] < margin:
+            entry[z], room[z] = 0.0, -1.0
+    b_first = _brake_rate(tmp[1], tmp[1], accel, step, cap)  # (a speed within Δτ of here: |q̇| + a·Δτ)
+    # the grid samples in sight: k_now + 1 … k_now + n_ahead, measured once each
+    n_ahead = int(par[LOOKAHEAD] / step) + 2
+    k_now = int(math.floor((tau - st[TAU0]) / step))
+    k_last = k_now + n_ahead
+    k = int(st[NEXT_K]) if st[NEXT_K] > k_now else k_now
+    first = k
+    while k <= k_last:
+        slot = k % n_ring
+        _measure(knots, coeffs, st[TAU0] + k * step, rows, cols, pieces, ring[slot], nz, tmp)
+        ring[slot, nz] = _brake_rate(tmp[1], tmp[3], accel, step, cap) if k > first or first > k_now else 0.0
         for j in range(tmp.shape[1]):
-            tmp[3, j] = tmp[1, j]
+            tmp[3, j] = tmp[1, j]  # (the last sample's velocity, for the next one's b)
+        k += 1
+    st[NEXT_K] = k
+    # braking room: Σ 2·b·Δτ over the steps from grid point k_now + 2 on (a tick moves τ by at
+    # most one Δτ, so it never passes that point) up to the last sample clear of each zone
+    capacity, before = 0.0, -1.0
+    for i in range(1, n_ahead + 1):
+        slot = (k_now + i) % n_ring
+        if i >= 3:
+            capacity += 2.0 * ring[slot, nz] * step
+        for z in range(nz):
+            if entry[z] == np.inf and ring[slot, z] < margin:
+                entry[z] = st[TAU0] + (k_now + i) * step - tau
+                room[z] = before
+        before = capacity if i >= 2 else -1.0
     s = st[RATE]
     s_try = min(1.0, s + b_first * dt)
     s_new = s_try
@@ -114,12 +149,12 @@ class Gate:
     def __init__(self, trajectory, zones, t0: float):
         self.inner, self.zones = trajectory, zones
         self.st = np.zeros(N_STATE)
-        self.st[TAU], self.st[RATE], self.st[T_LAST] = t0, 1.0, t0
+        self.st[TAU], self.st[RATE], self.st[T_LAST], self.st[TAU0], self.st[NEXT_K] = t0, 1.0, t0, t0, -1.0
 
     def sample(self, t: float, q, qd, qdd) -> None:
         z = self.zones
-        gate_step(self.inner.knots, self.inner.coeffs, t, z.expiry, z.rows, z.cols, z.pieces, z.accel, z.gate_par,
-                  self.st, z.entry, z.room, z.held, z.waiting, q, qd, qdd, z.tmp)
+        gate_step(self.inner.knots, self.inner.coeffs, t, z.gate_expiry, z.rows, z.cols, z.pieces, z.accel,
+                  z.gate_par, self.st, z.ring, z.entry, z.room, z.held, z.waiting, q, qd, qdd, z.tmp)
 
     # -- what the daemon and its moves ask of a trajectory (in loop time) ----------------
     @property
@@ -157,6 +192,11 @@ class Gate:
             q, qd, qdd = self.inner.state_at(self.st[TAU])
             return q, qd * self.st[RATE], np.zeros_like(qdd)
         return self.inner.state_at(self.st[TAU] + max(0.0, t - self.st[T_LAST]))
+
+
+def ring_rows(par) -> int:
+    """The rows of the gate's sample ring: every sample in sight, two spare, the point it is at."""
+    return int(par[LOOKAHEAD] / par[STEP]) + 2 + 3
 
 
 def gate_parameters(v_max, a_max, margin: float, dt: float, joints=None) -> np.ndarray:

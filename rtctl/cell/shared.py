@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 
-from rtctl.cell.gate import Gate, gate_parameters, gate_step
+from rtctl.cell.gate import Gate, gate_parameters, gate_step, ring_rows
 from rtctl.errors import ConfigError, RtctlError
 from rtctl.guard import kernels as gk
 from rtctl.guard.runtime import RuntimeGuard
@@ -73,6 +73,7 @@ class SharedZones:
         self.seq = [0] * nz  # the grant held (or last held)
         self.floor = [0] * nz  # grants up to this number are refused (dropped, or stale)
         self.tmp = np.zeros((4, model.nq))
+        self.ring = np.zeros((ring_rows(self.gate_par), nz + 1))  # the gate's samples of the path ahead
         self.tick0_ns = 0  # CLOCK_MONOTONIC of tick 0 (set when the loop starts)
         self.guard_margin = guard_margin
         self.gate: Gate | None = None
@@ -92,8 +93,9 @@ class SharedZones:
 
         h = hold(np.zeros(n))
         q = np.zeros((3, n))
+        st = Gate(h, self, 0.0).st
         gate_step(h.knots, h.coeffs, 0.0, self.gate_expiry.copy(), self.rows, self.cols, self.pieces, self.accel,
-                  self.gate_par, np.zeros(4), self.entry.copy(), self.room.copy(), self.held.copy(),
+                  self.gate_par, st, self.ring.copy(), self.entry.copy(), self.room.copy(), self.held.copy(),
                   self.waiting.copy(), q[0], q[1], q[2], self.tmp.copy())
         for g in self.guards:
             g.warm_up()

@@ -180,3 +180,28 @@ def test_cell_status_shows_who_holds_and_who_waits():
     lines = table.splitlines()
     assert "shared zones" in lines[1]
     assert "fixture held" in lines[2] and "fixture waiting" in lines[3]
+
+
+def test_a_lease_about_to_end_does_not_let_the_path_start_into_the_zone(setup):
+    """Within the stopping horizon of its end a lease still lets the guard pass but not the
+    gate: the path would not come to rest before the lease ends."""
+    z = zones(setup)
+    z.expiry[0] = 1.0  # held by the guard until t = 1 s, by the gate never (1 s < the horizon)
+    z.gate_expiry[0] = z.expiry[0] - z.horizon
+    _, out = run_gate(z, crossing(setup), 3.0)
+    assert min(depth(q) for _, q, *_ in out) >= z.clearance - 1e-9
+    assert out[-1][4] == 1.0
+    assert z.guard(None).check(0.5, JointState(6), JointCommand(6)) == GuardVerdict.PASS
+
+
+def test_a_fast_approach_still_stops_at_the_border(setup):
+    """From far away the path reaches W at speed: braking takes the whole room it has."""
+    start, far = READY.copy(), READY.copy()
+    start[0], far[0] = -2.5, 2.5
+    trajectory = through_waypoints([far], setup[1], start=start)
+    z = zones(setup)
+    _, out = run_gate(z, trajectory, 6.0)
+    speeds = [abs(qd[0]) for _, _, qd, *_ in out]
+    assert max(speeds) > 2.0  # (it did come fast)
+    assert min(depth(q) for _, q, *_ in out) >= z.clearance - 1e-9
+    assert out[-1][2][0] == 0.0
