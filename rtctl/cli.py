@@ -90,6 +90,9 @@ def _parser() -> argparse.ArgumentParser:
                                      "per line otherwise (systemd/journald) or with --log-format json.")
     run.add_argument("config", help="run configuration (TOML), e.g. configs/puma560_sim.toml")
     run.add_argument("--sim", action="store_true", help="replace the joint devices by the embedded simulator")
+    run.add_argument("--cell", metavar="CELLFILE", help="enforce this cell's shared zones (leases; `rtctl cell up` "
+                                                        "passes it)")
+    run.add_argument("--cell-robot", metavar="NAME", help="which robot of --cell this run is")
     run.add_argument("--duration", type=_SECONDS, metavar="S", help="stop after S seconds of loop time (default: run until `rtctl stop`, SIGTERM or Ctrl-C)")
     run.add_argument("--realtime-factor", type=_FACTOR, metavar="F",
                      help="simulated devices only: 0 = as fast as possible (reproducible), 1 = wall clock")

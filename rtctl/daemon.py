@@ -37,6 +37,7 @@ from rtctl.logs import written_in_background
 from rtctl.outputs import output_path
 from rtctl.control_socket import ControlServer
 from rtctl.errors import ConfigError, HardwareError, RtctlError, TelemetryError, TrajectoryError, exit_code_for
+from rtctl.cell import shared as shared_zones
 from rtctl.guard import run as guarded
 from rtctl.progress import Progress, interval_for
 from rtctl.hal import JointCommand, Status
@@ -107,9 +108,11 @@ class Daemon:
         self.limits = JointLimits.for_run(cfg.model, cfg.trajectory)
         self._check_trajectory()
         self.guard = guarded.runtime_guard(cfg, self.limits)
+        self.zones = shared_zones.for_run(args, cfg, self.limits)  # a cell's shared zones (--cell): leases, gate
         self.safety = SafetyStage.from_model(
             self.model, cfg.safety, device_joints=runtime.device_joints, devices=runtime.devices,
-            gravity=lambda q: gravity_of(self.model, q), guard=self.guard)
+            gravity=lambda q: gravity_of(self.model, q),
+            guard=self.guard if self.zones is None else self.zones.guard(self.guard))
         # a signal's stop request cuts the sleep to the next deadline short: SIGTERM is answered
         # at once, however long the period
         clock = MonotonicClock(round(cfg.loop.spin_us * 1e3), interrupted=lambda: self.stop_reason is not None)
@@ -260,6 +263,8 @@ class Daemon:
         """Run ``trajectory`` from time ``t`` with fresh controllers (at the start, and after a
         ``reset``); the devices are the caller's to activate."""
         ref = self.rt.ref
+        if self.zones is not None:  # (it waits at a shared zone's border for the lease)
+            trajectory = self.zones.gated(trajectory, t)
         self.tick.trajectory = trajectory
         trajectory.sample(t, ref.q, ref.qd, ref.qdd)
         for c in self.rt.configured:  # (the inactive ones too: a switch starts them from here)
@@ -274,6 +279,7 @@ class Daemon:
         scratch = JointCommand(self.model.nq)
         devices = [(f"device {d.name}", d.warm_up) for d in self.rt.all_devices if hasattr(d, "warm_up")]
         guard = [("guard", lambda: guarded.warm_up(self.cfg, self.guard))] if self.guard is not None else []
+        guard += [("shared zones", self.zones.warm_up)] if self.zones is not None else []
         controllers = [(f"controller {c.name}", lambda c=c: c.update(0.0, self.rt.state, self.rt.ref, scratch))
                        for c in self.rt.configured]  # (an inactive one compiled now, not at its switch)
         return devices + guard + controllers + [("safety stage", lambda: self._warm_up_safety(scratch)),
@@ -315,6 +321,8 @@ class Daemon:
         duration = self.args.duration
         stopping_since = None
         ticker.start()
+        if self.zones is not None:  # (leases arrive as CLOCK_MONOTONIC instants)
+            self.zones.tick0_ns = ticker.deadline_ns(0)
         progress = Progress(self.progress_s, duration, ticker, self.rt.state, self.rt.ref, tracking=tick.tracks)
         while True:
             ticker.wait()
@@ -328,7 +336,7 @@ class Daemon:
                 moves.cancel(self.stop_reason)
             planned = moves.swap(t)  # a planned move starts at a tick boundary
             if planned is not None:
-                tick.trajectory = planned
+                tick.trajectory = planned if self.zones is None else self.zones.gated(planned, t)
             tick(t)
             if tick.recorder is not None and tick.recorder.failure is not None:
                 self._telemetry_failed(tick.recorder.failure)
@@ -392,7 +400,8 @@ class Daemon:
                 col = name if name not in schema else f"{c.name}.{name}"
                 schema[col] = (arr.shape, arr.dtype.str)
                 sources[col] = arr
-        for col, arr in self.live.telemetry_columns().items():
+        extra = {} if self.zones is None else self.zones.telemetry_columns()
+        for col, arr in (self.live.telemetry_columns() | extra).items():
             schema[col] = (arr.shape, arr.dtype.str)
             sources[col] = arr
         try:

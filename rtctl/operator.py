@@ -9,7 +9,9 @@ status reply, the hand-over of a ``move`` to the planner process — and nothing
   stays up; a pending move is cancelled;
 * ``reset`` — clears the faults whose cause is gone and re-enables every device, all or none;
 * ``move`` — planned in another process (:mod:`rtctl.moves`), answered once started;
-* ``status`` — where the robot is and what the daemon is doing;
+* ``status`` — where the robot is and what the daemon is doing (with a cell's shared zones:
+  each lease, whether the path waits for it);
+* ``lease`` — a shared zone's lease granted or dropped (:mod:`rtctl.cell.shared`);
 * ``controllers``, ``switch``, ``get``, ``set`` — live changes (:mod:`rtctl.live`).
 """
 from __future__ import annotations
@@ -41,6 +43,9 @@ class Operator:
             return self.reset()
         if cmd == "move":
             return self.move(req)
+        if cmd == "lease" and self.d.zones is not None:
+            s = self.d.rt.state
+            return self.d.zones.lease(req, self.d.ticker.sim_time_s, s.position, s.velocity)
         if cmd == "controllers":
             return self.d.live.controllers()
         if cmd == "switch":
@@ -118,4 +123,6 @@ class Operator:
                 "q": s.position.tolist(), "qd": s.velocity.tolist(), "q_des": d.rt.ref.q.tolist(),
                 "verdict": Verdict(d.tick.verdict).name, "faults": [f.reason for f in d.safety.faults],
                 "overruns": d.ticker.stats.overruns, "estopped": d.estopped, "move": d.moves.state,
-                "stopping": d.stop_reason}
+                "stopping": d.stop_reason,
+                **({} if d.zones is None else {"zones": d.zones.status(d.ticker.sim_time_s, s.position, s.velocity),
+                                               "gate": d.zones.gate_status()})}

@@ -12,7 +12,9 @@ the machine's other work; a loop at SCHED_FIFO preempts it anyway.
 * ``…/state`` — the daemon's state (q, q̇, verdict, e-stop, active faults, tick) at the
   cell's ``state_rate_hz`` (default 100 Hz), from a ``status`` request each period;
 * ``…/events`` — a change of verdict, e-stop, faults or stopping, once, when first seen;
-* ``…/status`` — the state plus where the robot is served from, at ``status_rate_hz``.
+* ``…/status`` — the state plus where the robot is served from, at ``status_rate_hz``;
+* the robot's shared-zone leases, asked of the cell's arbiter and handed to the daemon
+  (:mod:`rtctl.cell.agent`), after each state.
 
 It exits when SIGTERM/SIGINT arrives or its daemon is gone (the control socket refuses).
 """
@@ -25,6 +27,7 @@ import sys
 import threading
 import time
 
+from rtctl.cell.agent import LeaseAgent
 from rtctl.cell.config import load_cell
 from rtctl.cell.session import open_bridge_session
 from rtctl.control_socket.client import request
@@ -66,6 +69,7 @@ class Bridge:
         self.queryable = session.declare_queryable(key("cmd", "*"), self._on_query)
         self.previous: dict | None = None
         self.published = 0
+        self.agent = LeaseAgent(cell, robot, socket_path, session)  # (a no-op for a robot without shared zones)
 
     def _on_query(self, query) -> None:
         """(A Zenoh thread.) The command is the key's last chunk; a reply is always sent."""
@@ -92,6 +96,7 @@ class Bridge:
                 status = None
             if status is not None:
                 self._publish(status, k % status_every == 0)
+                self.agent.step(status)
             k += 1
             next_t += period
             delay = next_t - time.monotonic()

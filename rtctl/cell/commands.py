@@ -46,12 +46,16 @@ def query_all(cell, session, name: str, fields: dict | None = None, timeout_s: f
 
 
 def format_replies(name: str, replies: dict) -> str:
-    rows = [("robot", "ok", "t (s)", "verdict", "e-stop", "faults / error")]
+    rows = [("robot", "ok", "t (s)", "verdict", "e-stop", "shared zones", "faults / error")]
     for robot, r in replies.items():
         detail = r.get("error") or "; ".join(r.get("faults") or []) or "-"
         t = r.get("t")
+        zones = r.get("zones") if isinstance(r.get("zones"), dict) else {}
+        shared = ", ".join(f"{name} " + ("held" if z.get("held") else "waiting" if z.get("waiting") else "-")
+                           for name, z in zones.items() if isinstance(z, dict)) or "-"
         rows.append((robot, "yes" if r.get("ok") else "NO", "-" if t is None else f"{t:.3f}",
-                     str(r.get("verdict", "-")), {True: "yes", False: "no"}.get(r.get("estopped"), "-"), detail))
+                     str(r.get("verdict", "-")), {True: "yes", False: "no"}.get(r.get("estopped"), "-"), shared,
+                     detail))
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]) - 1)]
     lines = ["  ".join(c.ljust(w) for c, w in zip(row[:-1], widths)) + "  " + row[-1] for row in rows]
     return f"cell {name}:\n" + "\n".join(lines)

@@ -20,6 +20,9 @@ NAME = re.compile(r"[A-Za-z][A-Za-z0-9_-]{0,62}")  # a single Zenoh key chunk: n
 LOOPBACK = "127.0.0.1"
 DEFAULT_STATE_RATE_HZ = 100.0
 DEFAULT_STATUS_RATE_HZ = 1.0
+DEFAULT_LEASE_S = 5.0
+DEFAULT_LEASE_MARGIN_S = 0.25
+ARBITER = "arbiter"  # the key chunk of the shared zones' arbiter (rtctl/<cell>/arbiter/cmd/lease): no robot's name
 
 
 @dataclass(frozen=True)
@@ -82,12 +85,14 @@ class CellConfig:
     file: Path
     name: str
     robots: tuple  # of CellRobot
-    zones: tuple  # of SharedZone (parsed and validated; not enforced yet: docs/cell.md); () unless check_robots
+    zones: tuple  # of SharedZone (enforced by leases: docs/cell.md); () unless check_robots
     zenoh: ZenohSettings
     auth: CellAuth
     state_rate_hz: float
     status_rate_hz: float
     run_dir: Path  # control sockets, telemetry, summaries and logs of the cell's processes
+    lease_s: float = DEFAULT_LEASE_S  # a shared zone's lease, d
+    lease_margin_s: float = DEFAULT_LEASE_MARGIN_S  # the arbiter counts a lease held until grant + d + m
 
     def robot(self, name: str) -> CellRobot:
         for r in self.robots:
@@ -150,6 +155,8 @@ def _auth(t: Table, base: Path) -> CellAuth:
 
 def _robot(t: Table, base: Path, check_robots: bool, default_host: str):
     name = _name(t, "name", "robot")
+    if name == ARBITER:
+        raise t.error("name", f"a robot name other than {ARBITER!r} (the shared zones' arbiter has that key)")
     config = (base / t.str("config")).resolve()
     if not config.is_file():
         raise t.error("config", f"a run configuration (relative to the cell file's folder); {config} not found")
@@ -202,6 +209,12 @@ def load_cell(path, *, check_robots: bool = True) -> CellConfig:
     status_rate = cell.float("status_rate_hz", DEFAULT_STATUS_RATE_HZ, min=0.1, max=100.0)
     run_dir = (base / cell.str("run_dir", f"../../runs/cell/{name}")).resolve()
     cell.done()
+    leases = t.table("leases", None)
+    lease_s, lease_margin_s = DEFAULT_LEASE_S, DEFAULT_LEASE_MARGIN_S
+    if leases is not None:
+        lease_s = leases.float("duration_s", DEFAULT_LEASE_S, min=0.05, max=60.0)
+        lease_margin_s = leases.float("margin_s", DEFAULT_LEASE_MARGIN_S, min=0.0, max=60.0)
+        leases.done()
     zenoh = _zenoh(t.table("zenoh", None))
     auth = _auth(t.table("auth"), base)
     robots_t = t.tables("robots")
@@ -224,4 +237,5 @@ def load_cell(path, *, check_robots: bool = True) -> CellConfig:
     else:
         t.raw("zones", None)
     t.done()
-    return CellConfig(path, name, tuple(robots), zones, zenoh, auth, state_rate, status_rate, run_dir)
+    return CellConfig(path, name, tuple(robots), zones, zenoh, auth, state_rate, status_rate, run_dir, lease_s,
+                      lease_margin_s)

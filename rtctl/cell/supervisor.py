@@ -3,7 +3,8 @@ stopped together (docs/cell.md, "Processes").
 
 Each daemon is an ordinary ``rtctl run`` with its own control socket, telemetry file, summary
 and log in the cell's ``run_dir``; its bridge (:mod:`rtctl.cell.bridge`) is started once the
-daemon answers on its socket. Every child gets its own session (a Ctrl-C at the terminal
+daemon answers on its socket; with shared zones, each daemon enforces them (``--cell``) and the
+arbiter (:mod:`rtctl.cell.arbiter`) starts once every bridge runs. Every child gets its own session (a Ctrl-C at the terminal
 reaches only this process, which then stops them in order) and SIGTERM should this process
 die (Linux's parent-death signal): nothing is left running behind it.
 
@@ -67,6 +68,10 @@ class CellProcesses:
         d = cell.run_dir
         self.members = [Member(r, d / f"{r.name}.sock", d / f"{r.name}.msgpack", d / f"{r.name}.summary.json",
                                d / f"{r.name}.log") for r in (cell.robots if robots is None else robots)]
+        # the shared zones' arbiter: on the host that starts the whole cell (docs/cell.md)
+        self.with_arbiter = bool(cell.zones) and len(self.members) == len(cell.robots)
+        self.arbiter: subprocess.Popen | None = None
+        self.arbiter_log = d / "arbiter.log"
 
     # -- start -------------------------------------------------------------------------
     def start(self, timeout_s: float, stop_requested=lambda: False, *, bridges: bool = True) -> None:
@@ -79,6 +84,8 @@ class CellProcesses:
         for m in self.members:
             argv = [sys.executable, "-m", "rtctl.cli", "run", str(m.robot.config), "--socket", str(m.socket),
                     "--telemetry", str(m.telemetry), "--summary", str(m.summary), "--log-format", "json"]
+            if self.cell.zones:  # its loop enforces the shared zones
+                argv += ["--cell", str(self.cell.file), "--cell-robot", m.robot.name]
             m.daemon = _spawn(argv + (["--sim"] if m.robot.sim else []), m.log)
             self.say(f"{m.robot.name}: daemon pid {m.daemon.pid}, log {m.log}")
             if not self._wait_ready(m, time.monotonic() + timeout_s, timeout_s, stop_requested):
@@ -89,6 +96,10 @@ class CellProcesses:
                                json.dumps({"cell": str(self.cell.file), "robot": m.robot.name, "socket": str(m.socket)})],
                               m.log.with_suffix(".bridge.log"))
             self.say(f"{m.robot.name}: running; bridge pid {m.bridge.pid} on {m.robot.endpoint()}")
+        if bridges and self.with_arbiter and not stop_requested():
+            self.arbiter = _spawn([sys.executable, "-m", "rtctl.cell.arbiter", json.dumps({"cell": str(self.cell.file)})],
+                                  self.arbiter_log)
+            self.say(f"shared zones: arbiter pid {self.arbiter.pid}, log {self.arbiter_log}")
 
     def _wait_ready(self, m: Member, deadline: float, timeout_s: float, stop_requested) -> bool:
         while not stop_requested():
@@ -114,6 +125,10 @@ class CellProcesses:
         returned for the caller to stop the cell. A daemon that ends alone is reported."""
         reported = set()
         while not stop_requested():
+            if self.arbiter is not None and self.arbiter.poll() is not None and "arbiter" not in reported:
+                reported.add("arbiter")  # (safe: a robot without a lease waits at the border, one inside stops)
+                self.say(f"the shared zones' arbiter ended with exit code {self.arbiter.returncode}: no lease is "
+                         f"granted any more (log {self.arbiter_log})")
             lost = self.lost_bridge()
             if lost is not None:
                 return lost
@@ -147,7 +162,8 @@ class CellProcesses:
                 # else it is ending already (`cell stop`): a signal now could cut its last steps short
         _wait_all([m.daemon for m in running], STOP_S)
         _wait_all([m.daemon for m in running if m.daemon.poll() is None], TERM_S, signal.SIGTERM)
-        bridges = [m.bridge for m in self.members if m.bridge is not None]
+        bridges = [m.bridge for m in self.members if m.bridge is not None] + \
+            ([self.arbiter] if self.arbiter is not None else [])
         _wait_all(bridges, TERM_S, signal.SIGTERM)
         for proc in [m.daemon for m in self.members if m.daemon] + bridges:  # ignored SIGTERM
             if proc.poll() is None:
@@ -161,7 +177,8 @@ class CellProcesses:
         return next((c if c > 0 else EXIT_HARDWARE for c in codes if c != 0), 0)
 
     def pids(self) -> list[int]:
-        return [p.pid for m in self.members for p in (m.daemon, m.bridge) if p is not None]
+        return [p.pid for m in self.members for p in (m.daemon, m.bridge) if p is not None] + \
+            ([self.arbiter.pid] if self.arbiter is not None else [])
 
 
 def _wait_all(procs, timeout_s: float, sig=None) -> None:

@@ -20,6 +20,9 @@ switch     ``activate``, ``deactivate``: [controller names] (not both empty; ``d
            configured estimates) or "keep" (an adaptive controller keeps what it had learnt)
 get        ``key``: "NAME.KEY" (a controller's or ``safety``'s parameter)
 set        ``key``: "NAME.KEY", ``value``: a number or a list of numbers (as in the configuration)
+lease      ``zone``: a shared zone's name, ``seq``: the grant's number (int ≥ 1), ``expires_ns``: the
+           holder's expiry on CLOCK_MONOTONIC (int > 0), or 0 to drop the lease (a cell's bridge
+           sends it: docs/cell.md)
 =========  ====================================================================================
 
 :func:`validate` turns a decoded request into the dict the daemon's handler receives:
@@ -47,6 +50,7 @@ COMMANDS = {
     "switch": frozenset({"activate", "deactivate", "estimates"}),
     "get": frozenset({"key"}),
     "set": frozenset({"key", "value"}),
+    "lease": frozenset({"zone", "seq", "expires_ns"}),
 }
 ESTIMATES = ("initial", "keep")
 MAX_NAME = 200
@@ -149,6 +153,19 @@ def _parameter(request: dict) -> dict:
     return out
 
 
+def _lease(request: dict) -> dict:
+    zone = request.get("zone")
+    if not isinstance(zone, str) or not 0 < len(zone) <= MAX_NAME:
+        raise InvalidRequest(f"lease.zone: expected a zone name, got {zone!r}")
+    out = {"cmd": "lease", "zone": zone}
+    for field, least in (("seq", 1), ("expires_ns", 0)):
+        value = request.get(field)
+        if isinstance(value, bool) or not isinstance(value, int) or not least <= value < 2 ** 63:
+            raise InvalidRequest(f"lease.{field}: expected an integer >= {least}, got {value!r}")
+        out[field] = value
+    return out
+
+
 def validate(request, n_joints: int | None = None) -> dict:
     """The handler's view of ``request``, or :class:`InvalidRequest` saying what is wrong."""
     if not isinstance(request, dict):
@@ -166,4 +183,6 @@ def validate(request, n_joints: int | None = None) -> dict:
         return _switch(request)
     if cmd in ("get", "set"):
         return _parameter(request)
+    if cmd == "lease":
+        return _lease(request)
     return {"cmd": cmd}

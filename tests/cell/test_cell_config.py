@@ -72,6 +72,10 @@ BAD = [  # (what to change in a valid two-robot file, the key path named, words 
     (lambda s: s + ZONE.replace('name = "fixture"', 'name = "fixture"\nunit = "grad"'), "zones[0].unit", "'deg'"),
     (lambda s: s + ZONE.replace('joints = ["waist", "shoulder"]\nlo = [-0.8', 'joints = ["waist", "knee"]\nlo = [-0.8'),
      "zones[0].regions[1].joints", "unknown: 'knee'"),
+    (lambda s: s.replace('name = "r1"', 'name = "arbiter"'), "robots[1].name", "other than 'arbiter'"),
+    (lambda s: s + "\n[leases]\nduration_s = 0.0\n", "leases.duration_s", "0.05"),
+    (lambda s: s + "\n[leases]\nmargin_s = -1\n", "leases.margin_s", "0"),
+    (lambda s: s + "\n[leases]\nlength_s = 3\n", "leases.length_s", "unknown key"),
 ]
 ZONE = '''
 [[zones]]
