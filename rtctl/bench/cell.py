@@ -60,12 +60,13 @@ def _at_rate(config: Path, rate: float | None, folder: Path) -> Path:
     return path
 
 
-def _write_cell(folder: Path, config: Path, n: int) -> Path:
+def _write_cell(folder: Path, config: Path, n: int, bridge_priority: int | None = None) -> Path:
     (folder / "users").write_text(f"bench:{secrets.token_hex(16)}\n")
     robots = "".join(f'\n[[robots]]\nname = "r{i}"\nconfig = "{config}"\nport = {_free_port()}\nsim = true\n'
                      for i in range(n))
     path = folder / "cell.toml"
-    path.write_text(f'[cell]\nname = "bench{n}"\nrun_dir = "run"\n\n[auth]\nuser = "bench"\n'
+    priority = "" if bridge_priority is None else f"bridge_priority = {bridge_priority}\n"
+    path.write_text(f'[cell]\nname = "bench{n}"\nrun_dir = "run"\n{priority}\n[auth]\nuser = "bench"\n'
                     f'dictionary_file = "users"\n{robots}')
     return path
 
@@ -114,14 +115,15 @@ class _Sockets:
         pass
 
 
-def _run_cell(config: Path, n: int, trials: int, cell_on: bool, rate: float | None = None) -> dict:
+def _run_cell(config: Path, n: int, trials: int, cell_on: bool, rate: float | None = None,
+              bridge_priority: int | None = None) -> dict:
     from rtctl.cell.config import load_cell
     from rtctl.cell.supervisor import CellProcesses
 
     with tempfile.TemporaryDirectory(prefix="rtctl-bench-cell-") as folder:
         config = _at_rate(config, rate, Path(folder))
         rate_hz = _rate(config)
-        cell = load_cell(_write_cell(Path(folder), config, n))
+        cell = load_cell(_write_cell(Path(folder), config, n, bridge_priority))
         procs = CellProcesses(cell, say=lambda _: None)
         sent_ns, round_trip_ns, refused = [], [], 0
         try:

@@ -28,7 +28,7 @@ import time
 
 from rtctl.cell.config import ARBITER, NAME, load_cell
 from rtctl.cell.lease import LeaseTable
-from rtctl.cell.session import session_config, zenoh_module
+from rtctl.cell.session import raise_priority, session_config, zenoh_module
 
 CONFIRM_EVERY_S = 0.05
 QUERY_TIMEOUT_S = 0.5
@@ -126,6 +126,9 @@ def main(argv=None) -> int:
     for s in (signal.SIGTERM, signal.SIGINT):
         signal.signal(s, lambda *_: stop.set())
     cell = load_cell(config["cell"])
+    unprioritised = raise_priority(cell)
+    if unprioritised:
+        print(f"rtctl arbiter: {unprioritised}", file=sys.stderr)
     routed = bool(cell.zenoh.connect)
     zenoh = zenoh_module()
     session = zenoh.open(session_config(cell, connect=() if routed else tuple(r.endpoint() for r in cell.robots),

@@ -3,8 +3,8 @@
 ``python -m rtctl.cell.bridge CONFIG-JSON`` (``{"cell": PATH, "robot": NAME, "socket": PATH}``),
 started by ``rtctl cell up`` beside the daemon. Zenoh never runs in the loop's process: this
 process talks to the daemon only through its control socket, the way ``rtctl status`` does.
-It runs at the ordinary priority: it carries the e-stop, so it must not be starved by
-the machine's other work; a loop at SCHED_FIFO preempts it anyway.
+It carries the e-stop, so it runs at the cell's ``bridge_priority`` (SCHED_FIFO 60 by default,
+below the loops' 80): the machine's ordinary work cannot starve it, and the loops preempt it.
 
 * ``rtctl/<cell>/<robot>/cmd/<name>`` — a queryable; ``status``, ``stop``, ``estop``,
   ``reset`` and ``move`` are forwarded to the control socket (a ``move``'s fields as the
@@ -29,7 +29,7 @@ import time
 
 from rtctl.cell.agent import LeaseAgent
 from rtctl.cell.config import load_cell
-from rtctl.cell.session import open_bridge_session
+from rtctl.cell.session import open_bridge_session, raise_priority
 from rtctl.control_socket.client import request
 from rtctl.errors import EXIT_SOCKET, ControlSocketError
 
@@ -131,6 +131,9 @@ def main(argv=None) -> int:
         signal.signal(s, lambda *_: stop.set())
     cell = load_cell(config["cell"], check_robots=False)
     robot = cell.robot(config["robot"])
+    unprioritised = raise_priority(cell)
+    if unprioritised:
+        print(f"rtctl bridge {robot.name}: {unprioritised}", file=sys.stderr)
     try:
         session = open_bridge_session(cell, robot)
     except Exception as e:  # zenoh.ZError: e.g. the port is taken

@@ -12,7 +12,7 @@ import sys
 import time
 
 from rtctl.cell.config import NAME, load_cell
-from rtctl.cell.session import open_client_session, zenoh_module
+from rtctl.cell.session import open_client_session, raise_priority, zenoh_module
 from rtctl.errors import EXIT_FAULT, EXIT_OK, EXIT_SOCKET, ConfigError, RtctlError
 
 QUERY_TIMEOUT_S = 3.0
@@ -65,6 +65,7 @@ def cell_command(args) -> int:
     if args.cell_command == "up":
         return cell_up(args)
     cell = load_cell(args.cellfile, check_robots=False)
+    raise_priority(cell)  # (best effort: a command line without the privilege is only slower on a busy machine)
     session, _ = open_client_session(cell)
     try:
         replies = query_all(cell, session, args.cell_command)

@@ -21,6 +21,9 @@ LOOPBACK = "127.0.0.1"
 DEFAULT_STATE_RATE_HZ = 100.0
 DEFAULT_STATUS_RATE_HZ = 1.0
 DEFAULT_LEASE_S = 5.0
+# SCHED_FIFO priority of the processes on the e-stop's path (the bridges, the arbiter, `rtctl cell`
+# commands): above the machine's ordinary work, below the loops (80) and hil-sim's drives (70)
+DEFAULT_BRIDGE_PRIORITY = 60
 DEFAULT_LEASE_MARGIN_S = 0.25
 ARBITER = "arbiter"  # the key chunk of the shared zones' arbiter (rtctl/<cell>/arbiter/cmd/lease): no robot's name
 
@@ -93,6 +96,7 @@ class CellConfig:
     run_dir: Path  # control sockets, telemetry, summaries and logs of the cell's processes
     lease_s: float = DEFAULT_LEASE_S  # a shared zone's lease, d
     lease_margin_s: float = DEFAULT_LEASE_MARGIN_S  # the arbiter counts a lease held until grant + d + m
+    bridge_priority: int = DEFAULT_BRIDGE_PRIORITY  # 0: the ordinary scheduler
 
     def robot(self, name: str) -> CellRobot:
         for r in self.robots:
@@ -208,6 +212,7 @@ def load_cell(path, *, check_robots: bool = True) -> CellConfig:
     state_rate = cell.float("state_rate_hz", DEFAULT_STATE_RATE_HZ, min=1.0, max=1000.0)
     status_rate = cell.float("status_rate_hz", DEFAULT_STATUS_RATE_HZ, min=0.1, max=100.0)
     run_dir = (base / cell.str("run_dir", f"../../runs/cell/{name}")).resolve()
+    bridge_priority = cell.int("bridge_priority", DEFAULT_BRIDGE_PRIORITY, min=0, max=98)
     cell.done()
     leases = t.table("leases", None)
     lease_s, lease_margin_s = DEFAULT_LEASE_S, DEFAULT_LEASE_MARGIN_S
@@ -238,4 +243,4 @@ def load_cell(path, *, check_robots: bool = True) -> CellConfig:
         t.raw("zones", None)
     t.done()
     return CellConfig(path, name, tuple(robots), zones, zenoh, auth, state_rate, status_rate, run_dir, lease_s,
-                      lease_margin_s)
+                      lease_margin_s, bridge_priority)

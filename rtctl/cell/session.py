@@ -15,10 +15,30 @@
 from __future__ import annotations
 
 import json
+import os
 
 from rtctl.errors import RtctlError
 
 MISSING = "the cell needs Zenoh: pip install 'rtctl[cell]' (eclipse-zenoh)"
+
+
+def raise_priority(cell) -> str | None:
+    """Put this process at the cell's ``bridge_priority`` (SCHED_FIFO) before it opens its Zenoh
+    session, whose threads inherit it: the e-stop's path must not wait for a core behind the
+    machine's other work. Returns why it could not (it then runs on at the ordinary priority)."""
+    if not cell.bridge_priority:
+        return None
+    from rtctl.timing.rt import KnobStatus, RtSettings, apply_rt
+
+    report = next(r for r in apply_rt(RtSettings(priority=cell.bridge_priority)) if r.knob == "sched_fifo")
+    if report.status is KnobStatus.APPLIED:
+        for tid in os.listdir("/proc/self/task"):  # and the threads started before (numpy's BLAS pool)
+            try:
+                os.sched_setscheduler(int(tid), os.SCHED_FIFO, os.sched_param(cell.bridge_priority))
+            except (ProcessLookupError, PermissionError):  # (a thread that ended meanwhile)
+                pass
+        return None
+    return f"SCHED_FIFO {cell.bridge_priority} not applied ({report.detail}): it runs at the ordinary priority"
 
 
 def zenoh_module():

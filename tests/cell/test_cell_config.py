@@ -49,6 +49,8 @@ def test_the_zenoh_configuration_written_is_peer_loopback_without_multicast(tmp_
 
 
 BAD = [  # (what to change in a valid two-robot file, the key path named, words of the expectation)
+    (lambda s: s.replace("[cell]", "[cell]\nbridge_priority = 99", 1), "cell.bridge_priority", "98"),
+    (lambda s: s.replace("[cell]", "[cell]\nbridge_priority = 1.5", 1), "cell.bridge_priority", "integer"),
     (lambda s: s.replace('name = "r1"', 'name = "r/1"'), "robots[1].name", "Zenoh key chunk"),
     (lambda s: s.replace('name = "r1"', 'name = "r0"'), "robots[1].name", "is taken"),
     (lambda s: s.replace('sim = true', 'sim = true\nspeed = 3', 1), "robots[0].speed", "unknown key"),

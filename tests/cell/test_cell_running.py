@@ -7,6 +7,7 @@ cell: the check does not go through the path it checks."""
 from __future__ import annotations
 
 import json
+import os
 import re
 import signal
 import socket
@@ -45,6 +46,22 @@ def test_up_shows_every_robots_status(cell):
     for r in cfg.robots:
         assert f"{r.name}: running; bridge pid" in table
         assert any(line.split()[:2] == [r.name, "yes"] for line in running.lines)
+
+
+def test_the_bridges_run_at_the_cells_priority_below_the_loops(cell):
+    """The e-stop's path: every thread of each bridge (Zenoh's too) at SCHED_FIFO bridge_priority,
+    each daemon's loop above it (this machine grants SCHED_FIFO; where it does not, both run on)."""
+    cfg, running = cell
+    bridges = [int(p) for line in running.lines for p in re.findall(r"bridge pid (\d+)", line)]
+    assert len(bridges) == len(cfg.robots)
+    for pid in bridges:
+        threads = [int(t) for t in os.listdir(f"/proc/{pid}/task")]
+        assert len(threads) > 1  # (Zenoh's runtime threads)
+        for tid in threads:
+            assert os.sched_getscheduler(tid) == os.SCHED_FIFO, tid
+            assert os.sched_getparam(tid).sched_priority == cfg.bridge_priority == 60
+    for pid in (int(p) for line in running.lines for p in re.findall(r"daemon pid (\d+)", line)):
+        assert os.sched_getparam(pid).sched_priority > cfg.bridge_priority  # (the loop's thread is the main one)
 
 
 def test_each_bridge_publishes_its_robots_state(cell):
