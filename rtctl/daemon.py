@@ -31,12 +31,12 @@ from pathlib import Path
 import numpy as np
 import structlog
 
-from rtctl import jsonout
+from rtctl import run_records
 from rtctl.config import load_config, realtime_factor
 from rtctl.logs import written_in_background
 from rtctl.outputs import output_path
 from rtctl.control_socket import ControlServer
-from rtctl.errors import ConfigError, HardwareError, RtctlError, TelemetryError, TrajectoryError, exit_code_for
+from rtctl.errors import ConfigError, HardwareError, RtctlError, TrajectoryError, exit_code_for
 from rtctl.cell import shared as shared_zones
 from rtctl.guard import run as guarded
 from rtctl.progress import Progress, interval_for
@@ -146,7 +146,7 @@ class Daemon:
             if self.cfg.live is not None:  # (exit 2 before the telemetry file is truncated)
                 live_view.check_port(self.cfg.live)
             if path or self.cfg.live is not None:  # the live view reads the recorder's ring
-                self.recorder = self._open_recorder(Path(path or os.devnull))
+                self.recorder = run_records.open_recorder(self, Path(path or os.devnull))
             if self.cfg.live is not None:
                 self.live_view = live_view.LiveView.start(self.recorder, self.cfg.live)
                 log.info("live view", url=self.live_view.url)
@@ -176,7 +176,7 @@ class Daemon:
             self.moves.close()
             if server is not None:
                 server.close()
-            self._finish()
+            run_records.finish(self)
             for s, h in previous.items():
                 signal.signal(s, h)
             logs.close()  # what is queued is written
@@ -384,81 +384,3 @@ class Daemon:
     def _on_signal(self, signum, frame) -> None:
         if self.stop_reason is None:
             self.stop_reason = f"signal {signal.Signals(signum).name}"
-
-    # -- telemetry and summary -----------------------------------------------------------
-    def _open_recorder(self, path: Path):
-        from rtctl.telemetry import Recorder
-
-        n = self.model.nq
-        rt = self.rt
-        schema = {"t": ((), "f8"), "q": (n, "f8"), "qd": (n, "f8"), "q_des": (n, "f8"), "qd_des": (n, "f8"),
-                  "tau": (n, "f8"), "phase_ns": (len(DAEMON_PHASES), "i8")}
-        sources = {"q": rt.state.position, "qd": rt.state.velocity, "q_des": rt.ref.q, "qd_des": rt.ref.qd,
-                   "tau": rt.command.tau_ff, "phase_ns": self.ticker.phase_ns}
-        for c in rt.configured:
-            for name, arr in c.internals.items():
-                col = name if name not in schema else f"{c.name}.{name}"
-                schema[col] = (arr.shape, arr.dtype.str)
-                sources[col] = arr
-        extra = {} if self.zones is None else self.zones.telemetry_columns()
-        for col, arr in (self.live.telemetry_columns() | extra).items():
-            schema[col] = (arr.shape, arr.dtype.str)
-            sources[col] = arr
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-        except OSError as e:
-            where = ("<command line>", "--telemetry") if self.args.telemetry else (self.cfg.file, "telemetry.path")
-            raise ConfigError(*where, f"a file in a directory that exists or can be created; "
-                                      f"{path.parent}: {e.strerror or e}") from None
-        meta = {"config": str(self.cfg.file), "robot": self.model.name, "joints": list(self.model.joint_names),
-                "rate_hz": self.cfg.loop.rate_hz, "phases": list(DAEMON_PHASES),
-                "controllers": [c.name for c in rt.configured], "tunables": list(self.live.tunables)}
-        for c in rt.configured:  # e.g. the names of a vector column's entries: "leg_gates_labels"
-            meta.update(getattr(c, "telemetry_meta", {}))
-        rec = Recorder(path, schema, meta, block_rows=self.cfg.telemetry_batch,
-                       wait_when_full=self.cfg.loop.realtime_factor == 0)
-        for name, arr in sources.items():
-            rec.bind(name, arr)
-        self.tick.recorder = rec
-        return rec
-
-    def _finish(self) -> None:
-        summary = {"config": str(self.cfg.file), "robot": self.model.name, "exit_code": self.exit_code,
-                   "stop_reason": self.stop_reason, "timing": self.ticker.summary(),
-                   "tracking_error_rad": self.tick.tracking_summary(), "safety": self.safety.summary(),
-                   "operator": {"events": self.live.events},
-                   # tick k began at tick0 + k·period/realtime_factor on CLOCK_MONOTONIC: another
-                   # process on this machine can place the safety events' ticks on its own clock
-                   "clock": {"tick0_monotonic_ns": self.ticker.deadline_ns(0) if self.cfg.loop.realtime_factor else None},
-                   "devices": {d.name: d.diagnostics() for d in self.rt.all_devices}}
-        if self.recorder is not None:
-            summary["telemetry"] = {"path": str(self.recorder.path), "rows": self.recorder.rows,
-                                    "dropped_rows": self.recorder.dropped_rows, "error": self.telemetry_failure}
-            try:
-                self.recorder.close(summary=summary)
-            except TelemetryError as e:  # the summary is written all the same
-                if self.telemetry_failure is None:  # (else reported when it happened)
-                    log.error("telemetry failed", reason=str(e))
-                summary["telemetry"]["error"] = str(e)
-        if self.live_view is not None:
-            self.live_view.close(summary)
-        self.summary = summary
-        if self.args.summary:
-            try:
-                Path(self.args.summary).parent.mkdir(parents=True, exist_ok=True)
-                Path(self.args.summary).write_text(jsonout.dumps(summary, indent=2))
-            except OSError as e:
-                log.error("summary not written", path=str(self.args.summary), reason=e.strerror or str(e))
-        if not self.summary_line:
-            return
-        timing = summary["timing"]
-        log.info("summary", exit_code=self.exit_code, stop_reason=self.stop_reason, ticks=timing.get("ticks"),
-                 overruns=timing.get("overruns"), achieved_rate_hz=timing.get("achieved_rate_hz"),
-                 realtime_ratio=timing.get("realtime_ratio"),
-                 lateness_p99_us=(timing.get("wake_lateness_us") or {}).get("p99"),
-                 compute_p99_us=(timing.get("compute_us") or {}).get("tick", {}).get("p99"),
-                 **({} if not self.tick.tracks else {
-                     "tracking_rms_rad": summary["tracking_error_rad"]["rms_all"],
-                     "tracking_max_rad": summary["tracking_error_rad"]["max_all"]}),
-                 faults=len(summary["safety"]["faults"]))
-
