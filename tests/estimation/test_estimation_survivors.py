@@ -1,0 +1,54 @@
+"""Tests for the estimation mutants that survived the suite (issue 27, part 3; docs/testing.md).
+
+The drift mean's update (26) is checked step by step against the equation itself, from the
+filter's own θ̂ before and after each step, and over a run against the printed equations
+(rtctl.estimation.printed: plain numpy, none of the safeguards — with R̂ and Q̂ fixed they do not
+act). The ARX order's bounds are the documented ones (docs/arma_kalman.md).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rtctl.estimation import ArxOrder, SageHusa
+from rtctl.estimation.printed import PrintedSageHusa
+
+P_DIM = 4
+
+
+def _steps(seed, n):
+    rng = np.random.default_rng(seed)
+    return [(rng.normal(size=P_DIM) * rng.uniform(0.5, 2.0), float(rng.normal() * 3.0)) for _ in range(n)]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_drift_mean_follows_equation_26_each_step(seed):
+    """q̂(k+1) = (1 − d_k) q̂(k) + d_k (θ̂(k+1|k+1) − θ̂(k|k)), d_k = (1 − λ)/(1 − λ^(k+1))."""
+    lam = 0.95
+    f = SageHusa(1, P_DIM, lam=lam, P0=2.0, R0=0.3, adapt=("q",))
+    for k, (h, y) in enumerate(_steps(seed, 40)):
+        theta_before, q_before = f.theta[:, 0].copy(), f.q_hat[:, 0].copy()
+        eps = f.update(0, h, y)
+        assert abs(eps) > 1e-3  # ε² ≠ 1 matters for q̂ only through ε: keep it informative
+        d = (1.0 - lam) / (1.0 - lam ** (k + 1))
+        expected = (1.0 - d) * q_before + d * (f.theta[:, 0] - theta_before)
+        np.testing.assert_allclose(f.q_hat[:, 0], expected, rtol=1e-9, atol=1e-12)
+
+
+def test_drift_mean_run_matches_the_printed_equations():
+    """With R̂ and Q̂ fixed, q̂ on: the same θ̂ and q̂ as (18)-(26) written out in numpy."""
+    ours = SageHusa(1, P_DIM, lam=0.97, P0=1.5, R0=0.2, Q0=1e-3, adapt=("q",))
+    ref = PrintedSageHusa(P_DIM, lam=0.97, theta0=np.zeros(P_DIM), P0=np.full(P_DIM, 1.5), r0=0.0, R0=0.2,
+                          Q0=np.full(P_DIM, 1e-3), adapt=("q",))
+    for h, y in _steps(7, 60):
+        assert ours.update(0, h, y) == pytest.approx(ref.update(h, y), rel=1e-8, abs=1e-10)
+    np.testing.assert_allclose(ours.q_hat[:, 0], ref.q, rtol=1e-7, atol=1e-10)
+    np.testing.assert_allclose(ours.theta[:, 0], ref.theta, rtol=1e-7, atol=1e-10)
+
+
+@pytest.mark.parametrize(("name", "high"), [("na", 16), ("nb", 16), ("d", 64)])
+def test_arx_order_bounds_are_the_documented_ones(name, high):
+    """na, nb 1…16 and d 1…64 (docs/arma_kalman.md): the largest is taken, one more is refused."""
+    assert getattr(ArxOrder(**{name: high}), name) == high
+    with pytest.raises(ValueError, match=name):
+        ArxOrder(**{name: high + 1})
