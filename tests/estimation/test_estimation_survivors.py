@@ -7,11 +7,15 @@ act). The ARX order's bounds are the documented ones (docs/arma_kalman.md).
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from rtctl.estimation import ArxOrder, SageHusa
+from rtctl.cli import main
 from rtctl.estimation.printed import PrintedSageHusa
+from rtctl.telemetry import Recorder
 
 P_DIM = 4
 
@@ -52,3 +56,33 @@ def test_arx_order_bounds_are_the_documented_ones(name, high):
     assert getattr(ArxOrder(**{name: high}), name) == high
     with pytest.raises(ValueError, match=name):
         ArxOrder(**{name: high + 1})
+
+
+def test_arx_order_cannot_be_changed_after_its_checks():
+    """The bounds are checked at construction (and ``ArxOrder()`` is a shared default argument):
+    an order that could be reassigned would skip them."""
+    order = ArxOrder()
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        order.na = 100_000
+    assert hash(order) == hash(ArxOrder())  # a value: usable as a key
+
+
+def _recording(path, rows=120):
+    rng = np.random.default_rng(3)
+    rec = Recorder(path, {"t": ((), "f8"), "q": (1, "f8"), "tau": (1, "f8")}, {"rate_hz": 100, "joints": ["a"]},
+                   wait_when_full=True)
+    for k in range(rows):
+        rec.row["t"][()], rec.row["q"][:], rec.row["tau"][:] = k / 100, rng.normal(), rng.normal()
+        rec.commit()
+    rec.close()
+    return str(path)
+
+
+@pytest.mark.parametrize(("option", "high"), [("--na", 16), ("--nb", 16), ("--d", 64)])
+def test_identify_command_takes_the_largest_documented_order_and_refuses_one_more(tmp_path, capsys, option, high):
+    path = _recording(tmp_path / "run.msgpack")
+    assert main(["identify", path, option, str(high)]) == 0
+    capsys.readouterr()
+    assert main(["identify", path, option, str(high + 1)]) == 2
+    err = capsys.readouterr().err
+    assert option in err and f"from 1 to {high}" in err, err
