@@ -15,6 +15,7 @@ import pytest
 from rtctl.estimation import ArxOrder, SageHusa
 from rtctl.cli import main
 from rtctl.estimation.printed import PrintedSageHusa
+from rtctl.estimation.sage_husa import QUANTITIES, RCOV_HAT, R_HAT, first_nonfinite
 from rtctl.telemetry import Recorder
 
 P_DIM = 4
@@ -86,3 +87,20 @@ def test_identify_command_takes_the_largest_documented_order_and_refuses_one_mor
     assert main(["identify", path, option, str(high + 1)]) == 2
     err = capsys.readouterr().err
     assert option in err and f"from 1 to {high}" in err, err
+
+
+@pytest.mark.parametrize("bad", ["theta", "P", "r_hat", "R_hat", "q_hat", "Q_hat"])
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_first_nonfinite_names_the_quantity_that_went_bad(bad, value):
+    """One quantity of channel 1 made non-finite at a time: that one is named (the ARMA/GMV
+    controller's fault message reads it), and channel 0 is still clean."""
+    f = SageHusa(2, 3, P0=1.0, R0=0.1, Q0=1e-4)
+    where = {"theta": (f.theta, (2, 1)), "P": (f.P, (1, 2, 0)), "r_hat": (f.signals, (R_HAT, 1)),
+             "R_hat": (f.signals, (RCOV_HAT, 1)), "q_hat": (f.q_hat, (1, 1)), "Q_hat": (f.Q_hat, (0, 1))}
+    array, index = where[bad]
+    array[index] = value
+    names = {"theta": "coefficient estimate θ̂", "P": "covariance P", "r_hat": "noise mean r̂",
+             "R_hat": "noise variance R̂", "q_hat": "drift mean q̂", "Q_hat": "drift covariance Q̂"}
+    got = first_nonfinite(1, f.theta, f.P, f.q_hat, f.Q_hat, f.signals)
+    assert got >= 0 and QUANTITIES[got] == names[bad]
+    assert first_nonfinite(0, f.theta, f.P, f.q_hat, f.Q_hat, f.signals) == -1
