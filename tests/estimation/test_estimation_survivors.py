@@ -3,16 +3,19 @@
 The drift mean's update (26) is checked step by step against the equation itself, from the
 filter's own θ̂ before and after each step, and over a run against the printed equations
 (rtctl.estimation.printed: plain numpy, none of the safeguards — with R̂ and Q̂ fixed they do not
-act). The ARX order's bounds are the documented ones (docs/arma_kalman.md).
+act). The ARX order's bounds are the documented ones (docs/arma_kalman.md), in ArxOrder and in
+``rtctl identify``'s own check (exit 2 naming the option); the non-finite check names each
+quantity; identify's RMS prediction error is per channel, summed by hand.
 """
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
 
-from rtctl.estimation import ArxOrder, SageHusa
+from rtctl.estimation import ArxOrder, SageHusa, identify, simulate
 from rtctl.cli import main
 from rtctl.estimation.printed import PrintedSageHusa
 from rtctl.estimation.sage_husa import QUANTITIES, RCOV_HAT, R_HAT, first_nonfinite
@@ -104,3 +107,17 @@ def test_first_nonfinite_names_the_quantity_that_went_bad(bad, value):
     got = first_nonfinite(1, f.theta, f.P, f.q_hat, f.Q_hat, f.signals)
     assert got >= 0 and QUANTITIES[got] == names[bad]
     assert first_nonfinite(0, f.theta, f.P, f.q_hat, f.Q_hat, f.signals) == -1
+
+
+def test_identify_reports_the_rms_prediction_error_per_channel():
+    """eps_rms[j] = √(Σ_k ε_j(k)² / (N − 1)) for each channel j, summed by hand."""
+    rng = np.random.default_rng(11)
+    N, m = 300, 3
+    u = rng.normal(size=(N, m))
+    y = np.column_stack([simulate(ArxOrder(), [1.2, -0.5, 0.8, 0.3, 0.1], u[:, j], (j + 1) * 0.05 * rng.normal(size=N))
+                         for j in range(m)])
+    got = identify(y, u)
+    assert got["eps"].shape == (N - 1, m)
+    by_hand = [math.sqrt(sum(float(e) ** 2 for e in got["eps"][:, j]) / (N - 1)) for j in range(m)]
+    assert got["eps_rms"].shape == (m,)
+    np.testing.assert_allclose(got["eps_rms"], by_hand, rtol=1e-12)
