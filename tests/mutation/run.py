@@ -77,7 +77,8 @@ TARGETS = {
                       "tests/can/test_busload.py", 300),  # (test_busload: its bus budget)
     "estimation": (["rtctl/estimation"], "tests/estimation", 300),
     "logic": (["rtctl/logic"], "tests/leg/test_synthesis.py tests/leg/test_circuit_by_brute_force.py "
-              "tests/leg/test_table.py tests/leg/test_compile_limits.py tests/leg/test_walking.py", 300),
+              "tests/leg/test_table.py tests/leg/test_compile_limits.py tests/leg/test_walking.py "
+              "tests/leg/test_logic_survivors.py", 300),
     "vision": (["rtctl/vision", "drivers/protocols/framegrabber.py", "drivers/protocols/framegrabber_host.py"],
                "tests/vision --deselect tests/vision/test_vision_run.py", 300),
     "mcap": (["rtctl/telemetry/mcap_export.py", "rtctl/telemetry/channels.py"],  # (channels: shared with the live view)
