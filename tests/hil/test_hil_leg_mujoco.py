@@ -2,8 +2,8 @@
 contact-physics leg behind a pty; rtctl run walks it through the serial driver."""
 import pytest
 
-from hil_helpers import CONFIGS, run, unless_stalled, variant
-from test_hil_leg import PATTERN, states
+from hil_helpers import run, unless_stalled
+from test_hil_leg import PATTERN, leg_variant, states
 
 pytest.importorskip("mujoco", reason="the `mujoco` extra is not installed")
 
@@ -12,8 +12,8 @@ def leg_hil_guard(tmp_path):
     """configs/leg_hil.toml at 250 Hz (as the scripted leg's HIL test: the machine is shared) with
     configs/leg_mujoco.toml's circuit — the guard semantics and K_d2's 6° band; the exact circuit
     does not walk on MuJoCo (docs/mujoco.md)."""
-    path = variant(tmp_path, "leg_hil.toml", rate_hz="250.0")
-    text = path.read_text().replace('table = "leg/table3.toml"', f'table = "{CONFIGS}/leg/table3.toml"\nsemantics = "guard"')
+    path = leg_variant(tmp_path)
+    text = path.read_text().replace("/leg/table3.toml\"", "/leg/table3.toml\"\nsemantics = \"guard\"")
     path.write_text(text.replace("threshold = 25.0, hysteresis = 2.0", "threshold = 25.0, hysteresis = 6.0"))
     return path
 
