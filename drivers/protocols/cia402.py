@@ -296,6 +296,12 @@ def check_bring_up(path, layout: PdoLayout, node_id: int = 1) -> None:
         node.pdo.read(from_od=True)
     except Exception as e:
         raise ValueError(f"python-canopen cannot read its PDO set ({type(e).__name__}: {e})") from None
+    for m in (*node.rpdo.map.values(), *node.tpdo.map.values()):  # the records the bring-up writes (pdo.save)
+        for record in (m.com_record.od, m.map_array.od):
+            for sub in record:
+                if record[sub].data_type not in datatypes.INTEGER_TYPES:
+                    raise ValueError(f"object {record.index:#06x} sub {sub}: not an integer (CiA 301: every entry "
+                                     f"of a PDO's communication and mapping records is; the bring-up writes them)")
     theirs = {(kind, number): [(v.index, v.length) for v in m.map]
               for kind, maps in (("RPDO", node.rpdo.map), ("TPDO", node.tpdo.map))
               for number, m in maps.items() if m.enabled and len(m.map)}

@@ -121,13 +121,16 @@ def test_a_missing_or_unusable_eds_is_refused(tmp_path):
     ("1400sub2", None, None, "cannot read its PDO set"),  # RPDO1's transmission type: the bring-up sets it to 1
     ("1400sub5", None, None, "0x1400 sub 5"),  # RPDO1's event timer: the bring-up sets the drives' deadline there
     ("6076", None, None, "0x6076"),  # the rated torque the bring-up checks
-], ids=["transmission type", "rpdo deadline", "rated torque"])
+    ("1600sub0", "DataType", "0", "0x1600 sub 0"),  # a mapping count of no type: canopen's TypeError in pdo.save()
+    ("1400sub5", "DataType", "0x0008", "0x1400 sub 5"),  # the RPDO deadline as a REAL32
+], ids=["transmission type", "rpdo deadline", "rated torque", "map count type", "deadline type"])
 def test_an_eds_without_an_object_the_bring_up_sets_is_refused_at_configuration_not_a_keyerror_at_configure(
         tmp_path, section, key, value, named):
     """Found by the driver-boundary fuzzing (tests/hardening/test_driver_boundaries.py): such an
     EDS passed `rtctl check` (its PDO set was usable), then python-canopen raised KeyError
     in the middle of the drives' bring-up — after the bus had been opened and the
-    drives sent to PRE-OPERATIONAL — instead of exit 2 naming the key."""
+    drives sent to PRE-OPERATIONAL — instead of exit 2 naming the key. So did a PDO record
+    entry that is not an integer (a TypeError from python-canopen when the bring-up saved it)."""
     import configparser
 
     parser = configparser.RawConfigParser()
