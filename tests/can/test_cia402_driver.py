@@ -1,11 +1,11 @@
 """The cia402 driver in-process (tests/can/lockstep_rig.py): the real driver on a python-can
 virtual bus, emulated CiA 402 drives (hil_sim.cia402_drive) on the far end."""
 import threading
-import tracemalloc
 
 import numpy as np
 import pytest
 
+from allocations import growth_and_peak
 from drivers.cia402_joints import Cia402JointGroup
 from drivers.protocols import cia402 as c
 from drivers.protocols.cia402_layout import Cia402Joint
@@ -242,19 +242,10 @@ def test_a_tick_allocates_nothing_that_stays(rig):
     r.command.tau_ff[:] = [1.0, -1.0]
     for _ in range(200):
         r.tick()
-    tracemalloc.start()
-    try:
-        for _ in range(300):  # pools filled once under tracing (measured: 31 kB in the first 0.3 s, then 0)
-            r.tick()
-        before, _ = tracemalloc.get_traced_memory()
-        tracemalloc.reset_peak()
-        for _ in range(1500):
-            r.tick()
-        after, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
+    # pools filled once under tracing (measured: 31 kB in the first 0.3 s, then 0)
+    growth, peak = growth_and_peak(r.tick, 1500, warmup=300)
     # python-can's Messages (and the emulated drives' frames) come and go within each tick
-    assert after - before <= 1024 and peak - before < 16 * 1024, (after - before, peak - before)
+    assert growth <= 1024 and peak < 16 * 1024, (growth, peak)
 
 
 def test_write_sends_the_sync_and_returns_and_the_next_read_collects_the_tpdos(slow_rig):

@@ -7,12 +7,12 @@ acceleration against finite differences of its position."""
 from __future__ import annotations
 
 import time
-import tracemalloc
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from allocations import growth_and_peak
 from cell_helpers import REPO
 from rtctl.cell.shared import SharedZones, for_run
 from rtctl.config import load_config
@@ -143,16 +143,15 @@ def test_nothing_is_allocated_per_tick(setup):
     q, qd, qdd = np.zeros((3, 6))
     gate.sample(0.0, q, qd, qdd)
     guard.check(0.0, state, command)
-    tracemalloc.start()
-    try:
-        before, _ = tracemalloc.get_traced_memory()
-        for k in range(1, 2000):
-            gate.sample(k * DT, q, qd, qdd)
-            guard.check(k * DT, state, command)
-        after, _ = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
-    assert after - before <= 64
+    k = [0]
+
+    def tick():
+        k[0] += 1
+        gate.sample(k[0] * DT, q, qd, qdd)
+        guard.check(k[0] * DT, state, command)
+
+    growth, _ = growth_and_peak(tick, 2000)
+    assert growth <= 64
 
 
 def test_a_lease_shorter_than_twice_the_stopping_horizon_is_a_config_error(setup, tmp_path):

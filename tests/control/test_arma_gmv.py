@@ -4,12 +4,12 @@ which joint and quantity), no allocation per update, the q̂ divergence kept as 
 gravity absorbed at rest."""
 import subprocess
 import sys
-import tracemalloc
 
 import numpy as np
 import pytest
 
-from arma_loop import SHIPPED, run, shipped
+from allocations import growth_and_peak
+from arma_loop import run, shipped
 from rtctl.control import CONTROLLERS
 from rtctl.control.base import Reference
 from rtctl.errors import ConfigError, ControllerError
@@ -128,18 +128,10 @@ def test_update_allocates_nothing():
 
     for _ in range(5):
         tick()
-    tracemalloc.start()
-    try:
-        before, _ = tracemalloc.get_traced_memory()
-        tracemalloc.reset_peak()
-        for _ in range(2000):
-            tick()
-        after, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
+    growth, peak = growth_and_peak(tick, 2000)
     # nothing kept; the transient peak is numba's dispatcher boxing the arguments of the one call
     # (≈ 0.9 kB, freed at return) — an array the update allocated would keep growing the total
-    assert after - before <= 64 and peak - before < 2048, (after - before, peak - before)
+    assert growth <= 64 and peak < 2048, (growth, peak)
 
 
 def test_drift_mean_adaptation_diverges_in_closed_loop_and_estimates_stay_bounded_without_it(tmp_path):

@@ -2,12 +2,12 @@
 temporary, built from a configuration as a run builds it; and PD + gravity against Pinocchio."""
 from __future__ import annotations
 
-import tracemalloc
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from allocations import growth_and_peak
 from rtctl.config import load_config
 from rtctl.control import CONTROLLERS
 from rtctl.control.base import Reference
@@ -58,20 +58,12 @@ def test_update_allocates_nothing(type_name, tmp_path):
 
     for _ in range(50):
         tick()
-    tracemalloc.start()
-    try:
-        before, _ = tracemalloc.get_traced_memory()
-        tracemalloc.reset_peak()
-        for _ in range(2000):
-            tick()
-        after, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
+    growth, peak = growth_and_peak(tick, 2000)
     assert np.all(np.isfinite(rt.command.tau_ff))
     # nothing kept (an array kept per call would grow the total by ≥ 8 n bytes a call); the
     # transient peak is numba's dispatcher boxing the call's arguments, freed at return — measured
     # 216 B (computed torque, PD) and ≈ 0.9 kB (ARMA/GMV, C* Slotine–Li)
-    assert after - before <= 64 and peak - before < 1024, (after - before, peak - before)
+    assert growth <= 64 and peak < 1024, (growth, peak)
 
 
 def test_pd_gravity_is_pinocchios_gravity_plus_the_pd_law(puma, random_chain):

@@ -1,10 +1,9 @@
 """The compiled per-tick guard: its stopping path, stop and clamp, limits, impedance commands,
 episodes and events through the safety stage, and no allocation per tick."""
-import tracemalloc
-
 import numpy as np
 import pytest
 
+from allocations import growth_and_peak
 from rtctl.guard import Polygon, RuntimeGuard, Scene, Zone
 from rtctl.guard import kernels as k
 from rtctl.hal.joints import CommandMode, JointCommand, JointState
@@ -104,16 +103,8 @@ def test_check_allocates_nothing():
             state.position[:2] = [-0.122, 0.0]
             state.velocity[:2] = [0.3, 0.0]
         assert g.check(0.0, state, command) == verdict
-        tracemalloc.start()
-        try:
-            before, _ = tracemalloc.get_traced_memory()
-            tracemalloc.reset_peak()
-            for _ in range(3000):
-                g.check(0.0, state, command)
-            after, peak = tracemalloc.get_traced_memory()
-        finally:
-            tracemalloc.stop()
-        assert after - before <= 64 and peak - before < 8 * n, (action, after - before, peak - before)
+        growth, peak = growth_and_peak(lambda: g.check(0.0, state, command), 3000)
+        assert growth <= 64 and peak < 8 * n, (action, growth, peak)
 
 
 def test_bad_settings_are_refused():

@@ -64,8 +64,7 @@ def test_defect_05_messages_say_what_was_expected(puma):
 
 
 def test_defect_05_the_checked_into_forms_allocate_nothing_per_call():
-    import tracemalloc
-
+    from allocations import growth_and_peak
     from random_robots import make_random_chain
 
     n = 100  # a temporary vector (8 n bytes) would stand out from numba's argument tuples (≤ 0.6 kB)
@@ -78,13 +77,5 @@ def test_defect_05_the_checked_into_forms_allocate_nothing_per_call():
         dyn.mass_matrix_into(arrays, data, q, H)
 
     tick()
-    tracemalloc.start()
-    try:
-        before, _ = tracemalloc.get_traced_memory()
-        tracemalloc.reset_peak()
-        for _ in range(2000):
-            tick()
-        after, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
-    assert after - before <= 64 and peak - before < 8 * n, (after - before, peak - before)
+    growth, peak = growth_and_peak(tick, 2000)
+    assert growth <= 64 and peak < 8 * n, (growth, peak)

@@ -1,11 +1,12 @@
 """The leg_automaton controller: configuration errors, allocation-free update, and the safe
 state (both joints locked) in the tick a fault is found."""
-import tracemalloc
+import itertools
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from allocations import growth_and_peak
 from leg_helpers import CONFIGS, leg_runtime
 from rtctl.config import load_config
 from rtctl.daemon import Daemon
@@ -88,18 +89,14 @@ def test_update_allocates_nothing():
         board.read(0.0)
         ticks.append(board.channels.copy())
         board.write(0.0)
-    ch = board.channels
-    tracemalloc.start()
-    try:
-        before, _ = tracemalloc.get_traced_memory()
-        tracemalloc.reset_peak()
-        for row in ticks:
-            ch[:] = row
-            ctl.update(0.0, None, None, None)
-        after, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
-    assert after - before <= 64 and peak - before < 512, (after - before, peak - before)
+    ch, rows = board.channels, itertools.cycle(ticks)
+
+    def update():
+        ch[:] = next(rows)
+        ctl.update(0.0, None, None, None)
+
+    growth, peak = growth_and_peak(update, len(ticks))
+    assert growth <= 64 and peak < 512, (growth, peak)
 
 
 def test_a_circuit_that_does_not_settle_locks_both_joints_in_the_same_tick(tmp_path):

@@ -2,11 +2,11 @@
 numpy expressions they replaced, and they allocate nothing that lasts."""
 from __future__ import annotations
 
-import tracemalloc
 from pathlib import Path
 
 import numpy as np
 
+from allocations import growth_and_peak
 from hil_sim.embedded import command_torque, measure
 from rtctl.config import load_config
 from rtctl.hal import Status
@@ -56,15 +56,7 @@ def test_sim_device_read_and_write_allocate_nothing():
 
     for _ in range(50):
         tick()
-    tracemalloc.start()
-    try:
-        before, _ = tracemalloc.get_traced_memory()
-        tracemalloc.reset_peak()
-        for _ in range(2000):
-            tick()
-        after, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
+    growth, peak = growth_and_peak(tick, 2000)
     assert np.all(np.isfinite(dev.state.position))
     # nothing kept; the transient peak is numba boxing the calls' arguments, freed at return
-    assert after - before <= 64 and peak - before < 1024, (after - before, peak - before)
+    assert growth <= 64 and peak < 1024, (growth, peak)

@@ -154,7 +154,7 @@ def test_an_inactive_controller_may_only_take_over_joints_an_active_one_owns(wri
 
 
 def test_the_blend_allocates_nothing_per_tick():
-    import tracemalloc
+    from allocations import growth_and_peak
 
     slow, fast = controller("slow", [0], divisor=20), controller("fast", [1, 2])
     blend = Blend(4, 1e-3, time_constant=10.0)  # long enough to stay active for the whole measurement
@@ -163,14 +163,6 @@ def test_the_blend_allocates_nothing_per_tick():
     blend.begin(tau, [slow, fast])
     for _ in range(50):
         blend.apply(tau, due)
-    tracemalloc.start()
-    try:
-        before, _ = tracemalloc.get_traced_memory()
-        tracemalloc.reset_peak()
-        for _ in range(2000):
-            blend.apply(tau, due)
-        after, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
+    growth, peak = growth_and_peak(lambda: blend.apply(tau, due), 2000)
     assert blend.active
-    assert after - before <= 64 and peak - before < 1024, (after - before, peak - before)
+    assert growth <= 64 and peak < 1024, (growth, peak)

@@ -1,24 +1,14 @@
 """check() allocates nothing per tick, with the controllers in charge and in the fallback."""
-import tracemalloc
-
 import numpy as np
 
+from allocations import growth_and_peak
 from rtctl.hal.joints import CommandMode, JointCommand, JointState
 from rtctl.safety import SafetyStage, Verdict
 
 
 def _peak_and_growth(fn, calls=3000):
-    fn()
-    tracemalloc.start()
-    try:
-        before, _ = tracemalloc.get_traced_memory()
-        tracemalloc.reset_peak()
-        for _ in range(calls):
-            fn()
-        after, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
-    return after - before, peak - before
+    fn()  # compiled paths loaded
+    return growth_and_peak(fn, calls)
 
 
 def test_check_allocates_nothing():
