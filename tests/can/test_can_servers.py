@@ -18,6 +18,8 @@ from hil_sim.mit_drive import stand_in_bus
 from hil_sim.slcan import SlcanAdapter
 from hil_sim.socketcand import SocketcandServer
 
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 
 def read_until(sock, count, timeout=2.0):
     """Bytes from ``sock`` until ``count`` '>' have arrived (the timeout bounds a failure)."""

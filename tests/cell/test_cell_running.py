@@ -25,7 +25,7 @@ from rtctl.cell.config import load_cell  # noqa: E402
 from rtctl.cell.session import open_client_session  # noqa: E402
 from rtctl.control_socket.client import request  # noqa: E402
 
-pytestmark = pytest.mark.timeout(300)
+pytestmark = [pytest.mark.timeout(300), pytest.mark.realtime]  # (tests/conftest.py)
 
 
 @pytest.fixture(scope="module")

@@ -24,7 +24,7 @@ from zone_helpers import (LEASE_MARGIN_S, LEASE_S, Track, arbiter_events, closes
 SOAK_CYCLES = int(os.environ.get("RTCTL_CELL_CYCLES", "3"))
 ROBOTS = ("r0", "r1")
 
-pytestmark = [pytest.mark.slow, pytest.mark.timeout(300 + 25 * SOAK_CYCLES)]
+pytestmark = [pytest.mark.slow, pytest.mark.realtime, pytest.mark.timeout(300 + 25 * SOAK_CYCLES)]
 
 
 def finished(run_dir) -> bool:

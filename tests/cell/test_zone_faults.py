@@ -28,7 +28,7 @@ from rtctl.control_socket.client import request  # noqa: E402
 from zone_helpers import (LEASE_MARGIN_S, LEASE_S, READY, SIGN, Track, arbiter_events,  # noqa: E402
                           never_both_inside, status, wait_for, write_zone_cell)
 
-pytestmark = [pytest.mark.slow, pytest.mark.soak, pytest.mark.timeout(400)]  # (each tens of seconds of real time: the soak run)
+pytestmark = [pytest.mark.slow, pytest.mark.soak, pytest.mark.realtime, pytest.mark.timeout(400)]  # (each tens of seconds of real time: the soak run)
 
 
 def visit(robot: str, pause_s: float) -> dict:

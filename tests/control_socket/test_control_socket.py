@@ -14,6 +14,8 @@ import pytest
 from rtctl.control_socket import ControlServer, request
 from rtctl.errors import ControlSocketError, RtctlError
 
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 
 class Loop:
     """Polls the server every millisecond, as the daemon's loop would, and logs handled requests."""

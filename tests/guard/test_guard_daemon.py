@@ -5,9 +5,12 @@ import json
 import time
 
 import numpy as np
+import pytest
 
 from guard_helpers import ROOT, depths, guard_section, rtctl, sim_config
 from rtctl.telemetry import read
+
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
 
 SHIPPED = ROOT / "configs" / "puma560_guard_sim.toml"
 CT = '\n[[controllers]]\nname = "ct"\ntype = "computed_torque"\nkp = 400.0\nkd = 40.0\n'

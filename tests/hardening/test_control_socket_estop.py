@@ -8,6 +8,8 @@ import pytest
 from polled_server import PolledServer, connect
 from rtctl.control_socket import ControlServer, request
 
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 
 @pytest.fixture
 def served(tmp_path):

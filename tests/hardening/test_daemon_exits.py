@@ -5,8 +5,12 @@ from __future__ import annotations
 import json
 import time
 
+import pytest
+
 from rtctl.telemetry import read
 from runtime_helpers import BASE, rtctl
+
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
 
 # on the wall clock at a rate a loaded test machine keeps (and no overrun stop: timing is not what
 # is tested here), telemetry in blocks of 100 rows

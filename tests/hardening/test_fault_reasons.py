@@ -31,6 +31,8 @@ from runtime_helpers import ROOT
 sys.path.insert(0, str(ROOT / "tests" / "can"))
 from lockstep_rig import LockStep, virtual_bus  # noqa: E402
 
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 DM4310 = DRIVE_MODELS["dm4310"]
 
 

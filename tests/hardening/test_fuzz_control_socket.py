@@ -21,6 +21,8 @@ from polled_server import PolledServer, connect
 from rtctl.control_socket import COMMANDS, request
 from runtime_helpers import BASE
 
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 N = 6
 msgpack_values = st.recursive(
     st.none() | st.booleans() | st.integers(-2**63, 2**64 - 1) | st.floats() | st.text(max_size=8)

@@ -19,6 +19,8 @@ from rtctl.control_socket import request
 from runtime_helpers import ROOT
 from test_io_devices import registry  # noqa: F401  (fixture)
 
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 RATE_HZ = 250.0  # one period (4 ms) is the bound; well above this VM's own wake-up jitter (≤ 2 ms idle)
 A, B = [0, 45, -180, 0, 45, 0], [-30, 180, -60, 0, 30, 0]  # ready, place behind: the conveyor between
 STORM = [  # every command, and the moves that used to stall the loop (planning up to a second)

@@ -12,6 +12,8 @@ import pytest
 from rtctl.timing.rt import KnobStatus, RtSettings, apply_rt
 from runtime_helpers import BASE, ROOT
 
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 
 @pytest.mark.parametrize("slack", [2**63 - 1, 1_000_001, -1])
 def test_defect_07_timer_slack_out_of_range_exits_2(write_config, capsys, slack):

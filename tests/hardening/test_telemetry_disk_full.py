@@ -14,6 +14,8 @@ import pytest
 from rtctl.telemetry import read
 from runtime_helpers import BASE, ROOT
 
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 # ~300-byte rows in blocks of 100: the shared ring (4 blocks, a memfd: also under the limit)
 # fits, the file holds ~8 blocks of the 2000 rows the run records
 LIMIT = 256 * 1024

@@ -16,6 +16,8 @@ from rtctl.moves.pending import Moves
 from rtctl.trajectory import hold, through_waypoints
 from runtime_helpers import BASE
 
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 PERIOD = 0.001
 HOME = np.radians([0, 45, -180, 0, 45, 0])
 TARGET = np.radians([20, 30, -160, 10, 60, 20])

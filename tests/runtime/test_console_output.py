@@ -14,6 +14,8 @@ import pytest
 
 from runtime_helpers import BASE, ROOT, rtctl
 
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 PACED = BASE.replace("realtime_factor = 0.0", "realtime_factor = 1.0")
 
 

@@ -9,9 +9,12 @@ import time
 
 import msgpack
 import numpy as np
+import pytest
 
 from rtctl.telemetry import read
 from runtime_helpers import BASE, rtctl
+
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
 
 PACED = BASE.replace("realtime_factor = 0.0", "realtime_factor = 1.0")
 

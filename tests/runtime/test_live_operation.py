@@ -13,7 +13,7 @@ from rtctl.telemetry import read
 from runtime_helpers import BASE, ROOT, rtctl
 from test_daemon import frame, raw_request
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.realtime]  # (tests/conftest.py)
 
 # computed torque drives the PUMA; C* Slotine–Li (π̂(0) = the model's × 0.8) waits to be switched in
 SWITCHABLE = BASE.replace("[trajectory]", """

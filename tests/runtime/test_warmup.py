@@ -13,6 +13,10 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 SCENARIO = textwrap.dedent("""
     import sys, time
     sys.path.insert(0, {module_dir!r})

@@ -23,6 +23,8 @@ from rtctl.telemetry.live_server import Publisher
 from rtctl.telemetry.ring import Ring
 from rtctl.telemetry.schema import row_dtype
 
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 pytest.importorskip("foxglove")
 websockets = pytest.importorskip("websockets")
 

@@ -11,6 +11,8 @@ import pytest
 
 from rtctl.telemetry import read
 
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 SCRIPT = Path(__file__).with_name("record_until_signal.py")
 
 

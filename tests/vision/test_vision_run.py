@@ -10,6 +10,8 @@ from rtctl.runtime import build
 from rtctl.telemetry import read
 from runtime_helpers import ROOT, rtctl
 
+pytestmark = pytest.mark.realtime  # (tests/conftest.py)
+
 VISION = ROOT / "configs" / "puma560_vision_sim.toml"
 
 
