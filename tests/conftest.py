@@ -29,7 +29,7 @@ def pytest_collection_modifyitems(config, items):
 def pytest_collection_finish(session):
     """A pytest-xdist that stopped grouping (as with pytest 9.2, pytest-xdist#1386) would run
     paced loops side by side and fail at random: refuse the run instead."""
-    if session.config.getvalue("loadgroup"):  # (set on the workers of --dist loadgroup)
+    if getattr(session.config.option, "loadgroup", False):  # (set on the workers of --dist loadgroup)
         loose = [i.nodeid for i in session.items if i.get_closest_marker("realtime") and "@realtime" not in i.nodeid]
         if loose:
             raise pytest.UsageError(f"pytest-xdist did not put {loose[0]} (and {len(loose) - 1} more) into the "
