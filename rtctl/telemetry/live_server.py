@@ -40,7 +40,7 @@ class Publisher:
         self.capacity = ring.block_rows * ring.n_blocks
         self.rows = np.frombuffer(ring.map, dtype=dtype, count=self.capacity, offset=CTL_BYTES)
         shapes = {name: dtype[name].shape for name in dtype.names}
-        self.names = joint_names(meta, shapes["q"][0] if "q" in shapes else 0)
+        self.names = joint_names(meta, shapes)
         self.channels = [(topic, foxglove.Channel(topic.topic, schema=topic.schema)) for topic in topics(shapes, meta)]
         self.log = foxglove.Channel(EVENTS, schema=LOG_SCHEMA)
         self.next = 0  # the next row of the run to read

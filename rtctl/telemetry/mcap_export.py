@@ -46,10 +46,10 @@ def export_mcap(path, out) -> Counts:
     if "t" not in tel:
         raise RtctlError(f"{path}: nothing to export ({tel.rows} rows, columns: {', '.join(tel.columns)})")
     t = tel["t"].astype(float)
-    n = tel["q"].reshape(tel.rows, -1).shape[1] if "q" in tel else 0
-    names = joint_names(tel.meta, n)
+    shapes = {name: column.shape[1:] for name, column in tel.columns.items()}
+    names = joint_names(tel.meta, shapes)
     summary = (tel.footer or {}).get("summary")
-    found = topics({name: column.shape[1:] for name, column in tel.columns.items()}, tel.meta)
+    found = topics(shapes, tel.meta)
     logged = events(float(t[0]), float(t[-1]), tel.meta, summary)
     with open(out, "wb") as f:
         writer = Writer(f)
