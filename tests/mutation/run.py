@@ -25,6 +25,12 @@ True ↔ False, numbers ± 1, loops that run zero times, break ↔ continue, a c
 type. Swaps such as ``*`` → ``<<`` on floats (a TypeError at once) or ``==`` → ``is`` on
 numbers only add run time.
 
+Two passes keep that affordable without changing a verdict (``prepare``, ``mutant_tests.py``,
+``selection.py``; docs/testing.md): the fast pass gives a mutant that cannot change compiled
+code the unmutated run's kernels and runs only the tests that executed its lines; every
+survivor of it runs again with all the target's tests from an empty kernel cache, and only
+a survivor of both counts.
+
 ``--sample N`` evaluates a fixed pseudo-random subset of N mutants per target, chosen from a
 hash of (file, operator, occurrence), so two commits are compared on the same mutants; a
 larger N holds every mutant of a smaller one, so a sample can be widened in place.
@@ -276,8 +282,8 @@ def _env(tree: Path) -> dict:
     """The tests' environment: the copy on the path, its compiled kernels under ``.numba``.
     rtctl keeps them in ``.numba/rtctl-kernels-<hash of the sources>`` (rtctl.kernel_cache),
     so each mutant gets a cache of its own — numba alone would reuse a caller compiled against
-    an earlier mutant's (or the original) callee in another file — and the next mutant's run
-    removes it."""
+    an earlier mutant's (or the original) callee in another file — which the next mutant's
+    test command removes before it starts."""
     return {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tree / ".numba")}
 
 
