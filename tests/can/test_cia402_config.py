@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from drivers.cia402_joints import Cia402JointGroup
+from rtctl.config import LoopConfig
 from rtctl.errors import BusLoadError, ConfigError
 from rtctl.tomltable import Table
 
@@ -31,9 +32,11 @@ def test_without_settings_a_device_has_the_documented_defaults():
     assert g.reconnect_timeout == 2.0 and g.reconnect_interval == 0.05
     constructor = inspect.signature(Cia402JointGroup.__init__).parameters  # built without a configuration: the same
     assert {k: constructor[k].default for k in ("reply_deadline", "stale_limit", "drive_timeout", "heartbeat_period",
-                                                "exchange_timeout", "reconnect_timeout", "reconnect_interval")} == {
+                                                "exchange_timeout", "reconnect_timeout", "reconnect_interval",
+                                                "period")} == {
         "reply_deadline": 0.6, "stale_limit": 3, "drive_timeout": 0.02, "heartbeat_period": 0.1,
-        "exchange_timeout": 0.5, "reconnect_timeout": 2.0, "reconnect_interval": 0.05}
+        "exchange_timeout": 0.5, "reconnect_timeout": 2.0, "reconnect_interval": 0.05,
+        "period": 1 / LoopConfig.rate_hz}  # (the loop's default rate)
 
 
 @pytest.mark.parametrize("key, accepted, refused", [
@@ -43,6 +46,7 @@ def test_without_settings_a_device_has_the_documented_defaults():
     ("drive_timeout", [0.001, 65.535], [0.0, -0.02, 65.536]),  # 0x1400 sub 5: UNSIGNED16 ms, 0 = none
     ("heartbeat_period", [0.001, 65.535], [0.0, 65.536]),  # 0x1017: UNSIGNED16 ms, 0 = none
     ("reconnect_interval", [0.001], [0.0]),
+    ("exchange_timeout", [0.001], [0.0, -0.5]),  # SDO answers and the state machine need time to come
     ("bus_load_limit", [1.0], [0.0, 1.01]),  # a fraction of the bus
 ])
 def test_settings_at_their_bounds(key, accepted, refused):
