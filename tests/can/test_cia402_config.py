@@ -79,3 +79,15 @@ def test_the_first_device_of_a_run_reports_the_bus_budget():
     second = from_config(shared, bus={"interface": "virtual", "channel": "y", "bitrate": 1_000_000})
     assert first.budget is not None and second.budget is None
     assert sorted(b.label for b in first.budget.buses.values()) == ["x", "y"]  # (both buses in it)
+
+
+def test_a_second_cia402_device_on_the_same_bus_is_refused():
+    """CANopen allows one SYNC producer per network, and each cia402 device is one (docs/cia402.md):
+    a second device on the same bus is a configuration error naming its ``bus``; on another bus it is fine."""
+    shared = {}
+    from_config(shared)
+    with pytest.raises(ConfigError) as e:
+        from_config(shared)
+    assert e.value.key_path == "devices[0].bus" and "SYNC" in str(e.value)  # (the SYNC rule, checked before the load both would exceed)
+    assert not isinstance(e.value, BusLoadError)
+    from_config(shared, bus={"interface": "virtual", "channel": "y", "bitrate": 1_000_000})
