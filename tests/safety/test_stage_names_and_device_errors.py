@@ -1,7 +1,8 @@
-"""What a fault record says about where it comes from (mutation survivors of the full safety run,
-issue 27 part 3): a device's own error belongs to no joint (``Fault.joint`` is −1 when the fault
-is not a joint's), and the joint names given to the stage — one per joint — name the joint in
-a fault's reason."""
+"""What a fault record says about where it comes from, and what a check assumes by default
+(mutation survivors of the full safety run, issue 27 part 3): a device's own error belongs to
+no joint (``Fault.joint`` is −1 when the fault is not a joint's); the joint names given to the
+stage — one per joint — name the joint in a fault's reason; without news of the controllers,
+they ran."""
 import numpy as np
 import pytest
 
@@ -30,3 +31,11 @@ def test_joint_names_name_the_joint_in_a_fault():
 def test_joint_names_are_one_per_joint(names):
     with pytest.raises(ValueError, match="joint_names"):
         SafetyStage(Q_MIN, Q_MAX, V_MAX, TAU_MAX, joint_names=names)
+
+
+def test_a_check_without_controller_news_assumes_the_controllers_ran():
+    """``controller_ok`` defaults to True: a caller that has no controller to report on (a hold, a
+    test bench) gets the state's verdict, not a controller fault."""
+    rig = Rig()
+    verdict = rig.stage.check(0.0, 0, rig.state, rig.statuses, rig.command)
+    assert verdict == rig.step() and rig.stage.faults == []
