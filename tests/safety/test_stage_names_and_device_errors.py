@@ -39,3 +39,15 @@ def test_a_check_without_controller_news_assumes_the_controllers_ran():
     rig = Rig()
     verdict = rig.stage.check(0.0, 0, rig.state, rig.statuses, rig.command)
     assert verdict == rig.step() and rig.stage.faults == []
+
+
+@pytest.mark.parametrize("key", ["hold_stiffness", "damping"])
+def test_the_fallback_gains_cannot_be_tuned_negative(key):
+    """A negative stiffness or damping pushes away from the hold: refused as in ``[safety]``."""
+    from rtctl.control.tunable import read_value
+    from rtctl.errors import ConfigError
+
+    tunable = Rig().stage.tunables()[key]
+    read_value(tunable, "safety", key, 0.0)
+    with pytest.raises(ConfigError):
+        read_value(tunable, "safety", key, -0.5)
