@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from drivers.cia402_joints import Cia402JointGroup
+from rtctl.config import LoopConfig
 from rtctl.errors import BusLoadError, ConfigError
 from rtctl.tomltable import Table
 
@@ -31,9 +32,11 @@ def test_without_settings_a_device_has_the_documented_defaults():
     assert g.reconnect_timeout == 2.0 and g.reconnect_interval == 0.05
     constructor = inspect.signature(Cia402JointGroup.__init__).parameters  # built without a configuration: the same
     assert {k: constructor[k].default for k in ("reply_deadline", "stale_limit", "drive_timeout", "heartbeat_period",
-                                                "exchange_timeout", "reconnect_timeout", "reconnect_interval")} == {
+                                                "exchange_timeout", "reconnect_timeout", "reconnect_interval",
+                                                "period")} == {
         "reply_deadline": 0.6, "stale_limit": 3, "drive_timeout": 0.02, "heartbeat_period": 0.1,
-        "exchange_timeout": 0.5, "reconnect_timeout": 2.0, "reconnect_interval": 0.05}
+        "exchange_timeout": 0.5, "reconnect_timeout": 2.0, "reconnect_interval": 0.05,
+        "period": 1 / LoopConfig.rate_hz}  # (the loop's default rate)
 
 
 @pytest.mark.parametrize("key, accepted, refused", [
@@ -43,6 +46,7 @@ def test_without_settings_a_device_has_the_documented_defaults():
     ("drive_timeout", [0.001, 65.535], [0.0, -0.02, 65.536]),  # 0x1400 sub 5: UNSIGNED16 ms, 0 = none
     ("heartbeat_period", [0.001, 65.535], [0.0, 65.536]),  # 0x1017: UNSIGNED16 ms, 0 = none
     ("reconnect_interval", [0.001], [0.0]),
+    ("exchange_timeout", [0.001], [0.0, -0.5]),  # SDO answers and the state machine need time to come
     ("bus_load_limit", [1.0], [0.0, 1.01]),  # a fraction of the bus
 ])
 def test_settings_at_their_bounds(key, accepted, refused):
@@ -75,3 +79,15 @@ def test_the_first_device_of_a_run_reports_the_bus_budget():
     second = from_config(shared, bus={"interface": "virtual", "channel": "y", "bitrate": 1_000_000})
     assert first.budget is not None and second.budget is None
     assert sorted(b.label for b in first.budget.buses.values()) == ["x", "y"]  # (both buses in it)
+
+
+def test_a_second_cia402_device_on_the_same_bus_is_refused():
+    """CANopen allows one SYNC producer per network, and each cia402 device is one (docs/cia402.md):
+    a second device on the same bus is a configuration error naming its ``bus``; on another bus it is fine."""
+    shared = {}
+    from_config(shared)
+    with pytest.raises(ConfigError) as e:
+        from_config(shared)
+    assert e.value.key_path == "devices[0].bus" and "SYNC" in str(e.value)  # (the SYNC rule, checked before the load both would exceed)
+    assert not isinstance(e.value, BusLoadError)
+    from_config(shared, bus={"interface": "virtual", "channel": "y", "bitrate": 1_000_000})

@@ -25,6 +25,12 @@ True ↔ False, numbers ± 1, loops that run zero times, break ↔ continue, a c
 type. Swaps such as ``*`` → ``<<`` on floats (a TypeError at once) or ``==`` → ``is`` on
 numbers only add run time.
 
+Two passes keep that affordable without changing a verdict (``prepare``, ``mutant_tests.py``,
+``selection.py``; docs/testing.md): the fast pass gives a mutant that cannot change compiled
+code the unmutated run's kernels and runs only the tests that executed its lines; every
+survivor of it runs again with all the target's tests from an empty kernel cache, and only
+a survivor of both counts.
+
 ``--sample N`` evaluates a fixed pseudo-random subset of N mutants per target, chosen from a
 hash of (file, operator, occurrence), so two commits are compared on the same mutants; a
 larger N holds every mutant of a smaller one, so a sample can be widened in place.
@@ -47,6 +53,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 CR = [sys.executable, "-m", "cosmic_ray.cli"]
 PYTEST = f"{sys.executable} -m pytest -x -q -p no:cacheprovider -p no:randomly -o addopts="
+TOOL_ERROR = "MUTATION-TOOL-ERROR"  # what mutant_tests.py prints when it fails itself
+TOOLS = ".mutation"  # in the copy: the test command, what the unmutated run recorded, the warm kernels
 
 TARGETS = {
     "safety": (["rtctl/safety"], "tests/safety", 240),
@@ -149,19 +157,77 @@ def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD", 
                                                          worker_outcome=WorkerOutcome.SKIPPED))
     print(f"{name}: {len(items)} mutants, {len(keep)} plausible, {'would run' if count_only else 'running'} "
           f"{len(chosen)}", flush=True)
-    started = time.monotonic()
-    baseline = subprocess.run(PYTEST.split() + tests.split(), cwd=tree, env=env, capture_output=True, text=True)
-    seconds = time.monotonic() - started
-    shutil.rmtree(tree / ".numba", ignore_errors=True)  # (the baseline's kernels: a cold start for each mutant)
-    if baseline.returncode != 0:
-        raise SystemExit(f"{name}: the tests fail without any mutant:\n{baseline.stdout[-3000:]}")
     if count_only:
+        started = time.monotonic()
+        baseline = subprocess.run(PYTEST.split() + tests.split(), cwd=tree, env=env, capture_output=True, text=True)
+        seconds = time.monotonic() - started
+        shutil.rmtree(tree / ".numba", ignore_errors=True)
+        if baseline.returncode != 0:
+            raise SystemExit(f"{name}: the tests fail without any mutant:\n{baseline.stdout[-3000:]}")
         print(f"{name}: the tests take {seconds:.0f} s from a cold kernel cache; {len(chosen)} mutants ≈ "
               f"{len(chosen) * seconds / 3600:.1f} h (a killed mutant stops at its first failure: less)", flush=True)
         return {"target": name, "mutants": 0, "killed": 0, "timeouts_or_crashes": 0, "survived": 0,
                 "survival_rate": None, "plausible": len(keep), "seconds": round(seconds, 1)}
+    prepare(name, tree, tests)
     _exec(config, db, tree)
     return report(name, tree, db)
+
+
+def target_files(name: str, tree: Path) -> list[str]:
+    """The target's source files, relative to ``tree``."""
+    files = []
+    for p in TARGETS[name][0]:
+        path = tree / p
+        files += [str(f.relative_to(tree)) for f in sorted(path.rglob("*.py"))] if path.is_dir() else [p]
+    return files
+
+
+def prepare(name: str, tree: Path, tests: str) -> None:
+    """Run the target's tests once on the unmutated copy, under coverage with one context per
+    test, and keep in ``<tree>/.mutation`` what the test command needs: the pristine files and
+    their hashes, the kernel closure, which tests execute each line, and the compiled kernels."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from selection import kernel_closure, lines_to_tests, tree_source_hash
+
+    tools = tree / TOOLS
+    shutil.rmtree(tools, ignore_errors=True)
+    (tools / "warm").mkdir(parents=True)
+    for tool in ("mutant_tests.py", "selection.py"):
+        shutil.copy2(Path(__file__).resolve().parent / tool, tools / tool)
+    files = target_files(name, tree)
+    for rel in files:
+        (tools / "pristine" / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(tree / rel, tools / "pristine" / rel)
+    (tools / "coveragerc").write_text("[run]\ninclude =\n" + "".join(f"    {tree / rel}\n" for rel in files))
+    env = {**_env(tree), "COVERAGE_FILE": str(tools / "coverage")}
+    collected = subprocess.run(PYTEST.split() + ["--collect-only"] + tests.split(), cwd=tree, env=env,
+                               capture_output=True, text=True)
+    order = [line for line in collected.stdout.splitlines() if "::" in line]
+    shutil.rmtree(tree / ".numba", ignore_errors=True)
+    started = time.monotonic()
+    baseline = subprocess.run(PYTEST.split() + [f"--cov-config={tools / 'coveragerc'}", "--cov", "--cov-context=test",
+                                                "--cov-report="] + tests.split(),
+                              cwd=tree, env=env, capture_output=True, text=True)
+    if baseline.returncode != 0 or not order:
+        raise SystemExit(f"{name}: the tests fail without any mutant:\n{baseline.stdout[-3000:]}")
+    kernels = list((tree / ".numba").glob("rtctl-kernels-*"))
+    expected = "rtctl-kernels-" + tree_source_hash(tree)
+    warm = None
+    if [k.name for k in kernels] == [expected]:
+        shutil.move(kernels[0], tools / "warm" / expected)
+        warm = expected
+    else:
+        print(f"{name}: the unmutated run left {[k.name for k in kernels]}, not {expected}: no warm kernels",
+              flush=True)
+    shutil.rmtree(tree / ".numba", ignore_errors=True)
+    covered = lines_to_tests(tools / "coverage", tree, files, order)
+    closure = kernel_closure(tree)
+    state = {"tests": tests, "files": {rel: hashlib.sha256((tree / rel).read_bytes()).hexdigest() for rel in files},
+             "closure": sorted(set(files) & closure), "warm": warm, "order": order, "covered": covered}
+    (tools / "baseline.json").write_text(json.dumps(state))
+    print(f"{name}: unmutated run under coverage {time.monotonic() - started:.0f} s, {len(order)} tests; "
+          f"{len(state['closure'])} of {len(files)} files in the kernel closure (an empty cache for their mutants)",
+          flush=True)
 
 
 def _write_config(name: str, tree: Path, config: Path) -> str:
@@ -171,7 +237,8 @@ def _write_config(name: str, tree: Path, config: Path) -> str:
     tests = " ".join(t for t in tests.split() if (tree / t).exists())  # (a test file that moved)
     modules = ", ".join(json.dumps(str(tree / p)) for p in paths)
     config.write_text(f'[cosmic-ray]\nmodule-path = [{modules}]\ntimeout = {float(timeout)}\nexcluded-modules = []\n'
-                      f'test-command = "{PYTEST} {tests}"\n\n[cosmic-ray.distributor]\nname = "local"\n')
+                      f'test-command = "{sys.executable} {tree / TOOLS / "mutant_tests.py"}"\n\n'
+                      '[cosmic-ray.distributor]\nname = "local"\n')
     return tests
 
 
@@ -189,7 +256,7 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
     if not db.exists():
         raise SystemExit(f"{name}: no run to resume in {tree}")
     export_tree(tree, rev)
-    _write_config(name, tree, config)
+    tests = _write_config(name, tree, config)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         items = list(work_db.work_items)
         elsewhere = {m.module_path for item in items for m in item.mutations if not m.module_path.is_relative_to(tree)}
@@ -206,6 +273,7 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         pending = sum(1 for _ in work_db.pending_work_items)  # a stopped run's unfinished ones too
     print(f"{name}: resuming in {tree}, {pending} mutants to run", flush=True)
+    prepare(name, tree, tests)
     _exec(config, db, tree)
     return report(name, tree, db)
 
@@ -214,17 +282,42 @@ def _env(tree: Path) -> dict:
     """The tests' environment: the copy on the path, its compiled kernels under ``.numba``.
     rtctl keeps them in ``.numba/rtctl-kernels-<hash of the sources>`` (rtctl.kernel_cache),
     so each mutant gets a cache of its own — numba alone would reuse a caller compiled against
-    an earlier mutant's (or the original) callee in another file — and the next mutant's run
-    removes it."""
+    an earlier mutant's (or the original) callee in another file — which the next mutant's
+    test command removes before it starts."""
     return {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tree / ".numba")}
 
 
 def _exec(config: Path, db: Path, tree: Path) -> None:
-    """Run the pending mutants, then drop the last one's kernels."""
+    """Run the pending mutants in the fast pass, then every survivor again in the full pass
+    (the target's full tests, an empty kernel cache): only a survivor of both counts."""
+    from cosmic_ray.work_db import WorkDB, use_db
+    from cosmic_ray.work_item import TestOutcome
+
     try:
-        subprocess.run([*CR, "exec", config, db], cwd=tree, env=_env(tree), check=True)
+        subprocess.run([*CR, "exec", config, db], cwd=tree, env={**_env(tree), "MUTATION_MODE": "fast"}, check=True)
+        _stop_on_tool_errors(db)
+        with use_db(str(db), WorkDB.Mode.open) as work_db:
+            again = [item.job_id for item, result in work_db.completed_work_items
+                     if result.test_outcome == TestOutcome.SURVIVED]
+        with sqlite3.connect(db) as con:
+            con.executemany("DELETE FROM work_results WHERE job_id = ?", [(j,) for j in again])
+        print(f"{tree.name}: {len(again)} survivors of the fast pass, again with all tests and no cached kernels",
+              flush=True)
+        subprocess.run([*CR, "exec", config, db], cwd=tree, env={**_env(tree), "MUTATION_MODE": "full"}, check=True)
+        _stop_on_tool_errors(db)
     finally:
         shutil.rmtree(tree / ".numba", ignore_errors=True)
+
+
+def _stop_on_tool_errors(db: Path) -> None:
+    """Stop if the test command itself failed on some mutants (their results dropped: a resume runs them)."""
+    with sqlite3.connect(db) as con:
+        bad = [r[0] for r in con.execute("SELECT job_id FROM work_results WHERE output LIKE ?", (f"%{TOOL_ERROR}%",))]
+        output = con.execute("SELECT output FROM work_results WHERE output LIKE ? LIMIT 1",
+                             (f"%{TOOL_ERROR}%",)).fetchone()
+        con.executemany("DELETE FROM work_results WHERE job_id = ?", [(j,) for j in bad])
+    if bad:
+        raise SystemExit(f"the test command failed on {len(bad)} mutants (not counted; --resume runs them):\n{output[0]}")
 
 
 def report(name: str, tree: Path, db: Path) -> dict:
@@ -272,7 +365,7 @@ def main(argv=None) -> int:
         p.error("--resume and --survivors continue the run in --workdir")
     if args.survivors and args.sample is not None:
         p.error("--survivors keeps the run's own sample (--resume --sample N widens it to N)")
-    workdir = args.workdir or Path(tempfile.mkdtemp(prefix="rtctl-mutation-"))
+    workdir = (args.workdir or Path(tempfile.mkdtemp(prefix="rtctl-mutation-"))).resolve()
     names = GROUPS.get(args.target, [args.target])
     results = [resume_target(n, workdir, args.rev, widen=not args.survivors, sample=args.sample)
                if args.resume or args.survivors

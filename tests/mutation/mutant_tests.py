@@ -1,0 +1,90 @@
+"""cosmic-ray's test command for one planted mutant (written for tests/mutation/run.py, which
+copies this file and selection.py into ``<tree>/.mutation/`` with what the unmutated run
+recorded there in ``baseline.json``). Run in the copy's root; exits with pytest's status.
+
+``MUTATION_MODE=fast`` (the first pass): the mutant's file is found by its changed hash and
+its lines by a diff with the pristine copy. A file outside the kernel closure gets the
+unmutated run's compiled kernels, hard-linked under the name of the mutated tree's source hash
+(numba writes its index and data files to a temporary name and renames them, so a link is
+never written through); a file inside it starts from an empty cache. Only the tests that
+executed the mutated lines run, in the suite's order; where coverage cannot tell, all of them.
+
+``MUTATION_MODE=full`` (the second pass, for every survivor of the first): the target's full
+tests from an empty cache, as a run without this tool would do. A survivor counts only here.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+import traceback
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from selection import select_tests, tree_source_hash  # noqa: E402  (this file's directory, after the path)
+
+PYTEST = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-p", "no:randomly", "-o", "addopts="]
+PREFIX = "rtctl-kernels-"
+
+
+def digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+TOOL_ERROR = "MUTATION-TOOL-ERROR"  # (run.py stops on it: a crash of this tool must not count as a kill)
+
+
+def link_warm(warm: Path, dest: Path) -> None:
+    """Hard-link every kernel file under ``warm`` into ``dest`` (not the lock: each directory has its own)."""
+    shutil.copytree(warm, dest, copy_function=os.link, ignore=shutil.ignore_patterns(".lock"))
+
+
+def main() -> int:
+    try:
+        return run()
+    except Exception:  # (only the tool's own failures: pytest runs in a subprocess)
+        print(TOOL_ERROR, traceback.format_exc(), flush=True)
+        return 99
+
+
+def run() -> int:
+    started = time.monotonic()
+    tree = Path.cwd()
+    state = json.loads((HERE / "baseline.json").read_text())
+    full = os.environ.get("MUTATION_MODE", "fast") == "full"
+    mutated = [rel for rel, sha in state["files"].items() if digest(tree / rel) != sha]
+    cache = tree / ".numba"
+    shutil.rmtree(cache, ignore_errors=True)  # (the previous mutant's kernels, or a stopped run's)
+    cache.mkdir()
+    rel = mutated[0] if len(mutated) == 1 else None
+    selected, warm = None, False
+    if not full and rel is not None:
+        if rel not in state["closure"] and state["warm"]:
+            link_warm(HERE / "warm" / state["warm"], cache / (PREFIX + tree_source_hash(tree)))
+            warm = True
+        covered = {int(line): [state["order"][i] for i in ids]
+                   for line, ids in state["covered"].get(rel, {}).items()}
+        chosen = select_tests((HERE / "pristine" / rel).read_text(), (tree / rel).read_text(), covered)
+        if chosen is not None:
+            selected = [t for t in state["order"] if t in chosen]
+    argv = PYTEST + (selected if selected is not None else state["tests"].split())
+    print(f"mutant in {rel}: {'all' if selected is None else len(selected)} tests, "
+          f"{'warm' if warm else 'empty'} kernel cache ({'full' if full else 'fast'} pass)", flush=True)
+    rc = subprocess.run(argv).returncode
+    if selected is not None and rc in (4, 5):  # (a test id pytest could not find again: all of them)
+        selected = None
+        rc = subprocess.run(PYTEST + state["tests"].split()).returncode
+    with open(HERE / "log.jsonl", "a") as log:
+        log.write(json.dumps({"file": rel, "pass": "full" if full else "fast", "warm": warm,
+                              "tests": None if selected is None else len(selected), "rc": rc,
+                              "seconds": round(time.monotonic() - started, 2)}) + "\n")
+    return rc
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,210 @@
+"""What a mutant can affect, so that its run reuses what it cannot change (tests/mutation/run.py).
+
+Two questions, answered from the unmutated tree's sources (``ast``, nothing imported):
+
+* **Can the mutant change compiled code?** numba freezes a kernel's globals and its callees when
+  it compiles. A file that defines no kernel and that no kernel-defining file imports
+  (transitively, package ``__init__`` files included) feeds no kernel, so a mutant there may run
+  on the unmutated tree's compiled kernels. Every other mutant compiles from an empty cache.
+* **Which tests can see the mutant?** coverage.py records which tests execute each line. That
+  holds only for lines that run as Python inside a function: the lines of compiled functions
+  (``@kernel``, ``@leaf`` — a leaf also runs as Python, but its calls from kernels are not seen —
+  ``njit`` …), and lines at module or class level or in a signature (they run at import, under
+  whichever test imports first) select the target's full tests (``None``).
+"""
+from __future__ import annotations
+
+import ast
+import difflib
+import importlib.util
+from pathlib import Path
+
+PACKAGES = ("rtctl", "drivers", "hil_sim")  # as in rtctl/kernel_cache.py: the packages that hold kernels
+JIT = {"kernel", "leaf", "njit", "jit", "register_jitable", "intrinsic", "overload", "overload_method",
+       "overload_attribute", "generated_jit", "vectorize", "guvectorize", "cfunc", "stencil"}
+_JIT_MODULES = ("numba", "rtctl.compiled")
+
+
+def module_name(rel: Path) -> str:
+    """``rtctl/guard/kernels.py`` → ``rtctl.guard.kernels``; ``rtctl/guard/__init__.py`` → ``rtctl.guard``."""
+    parts = list(rel.with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def package_files(tree: Path) -> dict[str, Path]:
+    """Every module of the packages in ``tree``: dotted name → path relative to ``tree``."""
+    files = {}
+    for pkg in PACKAGES:
+        for path in sorted((tree / pkg).rglob("*.py")):
+            rel = path.relative_to(tree)
+            if "__pycache__" not in rel.parts and not any(p.startswith(".") for p in rel.parts):
+                files[module_name(rel)] = rel
+    return files
+
+
+def _imported(tree_ast: ast.AST, here: str, is_package: bool, modules: set[str]) -> set[str]:
+    """Dotted names of the modules an import anywhere in the file reads from (absolute or
+    relative): ``import a.b`` → a, a.b (``as c``: a.b); ``from a import b`` → a.b if that is a module, else a."""
+    names = set()
+    package = here if is_package else here.rpartition(".")[0]
+    for node in ast.walk(tree_ast):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                parts = alias.name.split(".")
+                names.update(".".join(parts[:i]) for i in range(len(parts) if alias.asname else 1, len(parts) + 1))
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[:len(base) - (node.level - 1)]
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            subs = {f"{mod}.{a.name}" for a in node.names}
+            names.update(subs & modules)
+            if subs - modules:  # (a name defined in ``mod`` itself)
+                names.add(mod)
+    return names
+
+
+def _root(node: ast.AST) -> str | None:
+    """``self`` for ``self.inner.x``."""
+    while isinstance(node, ast.Attribute):
+        node = node.value
+    return node.id if isinstance(node, ast.Name) else None
+
+
+def _patches_modules(tree_ast: ast.AST) -> bool:
+    """Whether the file may rebind another module's globals (``mod.X = …``, ``setattr(obj, …)``
+    on anything but ``self``): then it may change a kernel without being imported by one."""
+    bound = set()
+    for node in ast.walk(tree_ast):
+        if isinstance(node, ast.Import):
+            bound.update((a.asname or a.name).split(".")[0] for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            bound.update(a.asname or a.name for a in node.names)
+    for node in ast.walk(tree_ast):
+        targets = node.targets if isinstance(node, ast.Assign) else \
+            [node.target] if isinstance(node, (ast.AugAssign, ast.AnnAssign)) else []
+        if any(isinstance(t, ast.Attribute) and isinstance(t.value, ast.Name) and t.value.id in bound
+               for t in targets):
+            return True
+        if isinstance(node, ast.Call) and _callee(node) == "setattr" and node.args and _root(node.args[0]) != "self":
+            return True
+    return False
+
+
+def _callee(node: ast.AST) -> str | None:
+    """The name a decorator or call invokes: ``kernel``, ``kernel(...)``, ``numba.njit(...)`` → njit."""
+    if isinstance(node, ast.Call):
+        node = node.func
+    if isinstance(node, ast.Name):
+        return node.id
+    if isinstance(node, ast.Attribute):
+        return node.attr
+    return None
+
+
+def _jit_functions(tree_ast: ast.AST) -> list[ast.AST]:
+    """The function definitions numba compiles: decorated with a JIT name, or passed to one."""
+    passed = {a.id for node in ast.walk(tree_ast) if isinstance(node, ast.Call) and _callee(node) in JIT
+              for a in node.args if isinstance(a, ast.Name)}
+    return [node for node in ast.walk(tree_ast)
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+            and (any(_callee(d) in JIT for d in node.decorator_list) or node.name in passed)]
+
+
+def defines_kernels(tree_ast: ast.AST) -> bool:
+    """Whether the file imports numba or rtctl.compiled (or a name from either) and compiles a function."""
+    imports = {node.module or "" for node in ast.walk(tree_ast) if isinstance(node, ast.ImportFrom)}
+    imports |= {a.name for node in ast.walk(tree_ast) if isinstance(node, ast.Import) for a in node.names}
+    imports |= {f"{node.module}.{a.name}" for node in ast.walk(tree_ast)
+                if isinstance(node, ast.ImportFrom) and node.module for a in node.names}
+    jit_module = any(m == j or m.startswith(j + ".") or m.endswith("compiled") for m in imports for j in _JIT_MODULES)
+    return jit_module and bool(_jit_functions(tree_ast))
+
+
+def kernel_closure(tree: Path) -> set[str]:
+    """Relative paths (``rtctl/guard/kernels.py``) of the files whose mutants may change compiled
+    code: those defining a kernel (or rebinding other modules' names) and every in-package
+    module they import, transitively."""
+    files = package_files(tree)
+    imports, roots = {}, []
+    for name, rel in files.items():
+        parsed = ast.parse((tree / rel).read_text(), str(rel))
+        imports[name] = _imported(parsed, name, rel.name == "__init__.py", set(files)) & set(files)
+        if defines_kernels(parsed) or _patches_modules(parsed):
+            roots.append(name)
+    seen, todo = set(), list(roots)
+    while todo:
+        name = todo.pop()
+        if name not in seen:
+            seen.add(name)
+            todo.extend(imports[name] - seen)
+    return {str(files[n]) for n in seen}
+
+
+def line_kinds(source: str) -> tuple[dict[int, int], set[int]]:
+    """For one file: every line inside a function body → the first line of the innermost
+    statement holding it (the line coverage.py records); and the lines of compiled functions."""
+    tree_ast = ast.parse(source)
+    first: dict[int, tuple[int, int]] = {}  # line → (span, first line) of the innermost statement
+    bodies = set()
+    for node in ast.walk(tree_ast):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            bodies.update(range(node.body[0].lineno, node.body[-1].end_lineno + 1))
+        if isinstance(node, ast.stmt):
+            span = node.end_lineno - node.lineno
+            for line in range(node.lineno, node.end_lineno + 1):
+                if line not in first or span < first[line][0]:
+                    first[line] = (span, node.lineno)
+    compiled = {line for fn in _jit_functions(tree_ast)
+                for line in range(min([fn.lineno, *(d.lineno for d in fn.decorator_list)]), fn.end_lineno + 1)}
+    return {line: first[line][1] for line in bodies if line in first}, compiled
+
+
+def changed_lines(pristine: str, mutated: str) -> set[int]:
+    """The pristine file's lines (1-based) that the mutant rewrote (an insertion: the line after)."""
+    a, b = pristine.splitlines(), mutated.splitlines()
+    lines = set()
+    for tag, i1, i2, _, _ in difflib.SequenceMatcher(None, a, b, autojunk=False).get_opcodes():
+        if tag != "equal":
+            lines.update(range(i1 + 1, max(i2, i1 + 1) + 1))
+    return lines
+
+
+def select_tests(pristine: str, mutated: str, covered: dict[int, list[str]]) -> set[str] | None:
+    """The tests that execute the mutant's lines (``covered``: statement's first line → test ids
+    from the unmutated run), or None where coverage cannot tell: the full tests."""
+    in_body, compiled = line_kinds(pristine)
+    selected = set()
+    for line in changed_lines(pristine, mutated):
+        if line in compiled or line not in in_body or not covered.get(in_body[line]):
+            return None
+        selected.update(covered[in_body[line]])
+    return selected or None
+
+
+def lines_to_tests(data_file: Path, tree: Path, files: list[str], order: list[str]) -> dict[str, dict[int, list[int]]]:
+    """From a coverage data file written with pytest-cov's ``--cov-context=test`` (contexts
+    ``<test id>|setup``, ``|run``, ``|teardown``; the empty context is the import at collection):
+    file → line → the indices in ``order`` of the tests that executed it."""
+    from coverage import CoverageData
+
+    index = {t: i for i, t in enumerate(order)}
+    data = CoverageData(basename=str(data_file))
+    data.read()
+    covered = {}
+    for rel in files:
+        by_line = data.contexts_by_lineno(str(tree / rel))
+        covered[rel] = {line: sorted({index[c.split("|")[0]] for c in contexts if c.split("|")[0] in index})
+                        for line, contexts in by_line.items()}
+    return covered
+
+
+def tree_source_hash(tree: Path) -> str:
+    """What rtctl.kernel_cache names the copy's kernel directory after, from the copy's own
+    module (loaded alone: importing rtctl would choose a directory)."""
+    spec = importlib.util.spec_from_file_location("_copy_kernel_cache", tree / "rtctl" / "kernel_cache.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.source_hash([tree / p for p in module.PACKAGES if (tree / p).is_dir()])

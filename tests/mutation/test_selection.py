@@ -1,0 +1,160 @@
+"""The mutation runner's shortcuts (tests/mutation/selection.py, mutant_tests.py) on small fixtures:
+which files may change compiled code, which tests a mutated line selects, and the hard-linked
+warm kernels. (This runs no mutant: cosmic-ray starts only from tests/mutation/run.py.)"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+from mutant_tests import link_warm
+from selection import changed_lines, kernel_closure, line_kinds, select_tests, lines_to_tests
+
+
+def write(root: Path, files: dict[str, str]) -> None:
+    for rel, text in files.items():
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_text(textwrap.dedent(text))
+
+
+PACKAGE = {
+    "rtctl/__init__.py": "",
+    "rtctl/compiled.py": "from numba import njit\ndef kernel(fn):\n    return njit(cache=True)(fn)\n",
+    "rtctl/units.py": "SCALE = 2\n",
+    "rtctl/consts.py": "from rtctl.units import SCALE\nLIMIT = 3 * SCALE\n",
+    "rtctl/sub/__init__.py": "from rtctl.sub.glue import run\n",  # imported on the way to kern: no kernel reads it
+    "rtctl/sub/kern.py": """\
+        from ..compiled import kernel
+        from ..consts import LIMIT
+        @kernel
+        def over(x):
+            return x > LIMIT
+        """,
+    "rtctl/sub/glue.py": "from rtctl.sub.kern import over\ndef run(x):\n    return over(x)\n",  # calls a kernel only
+    "rtctl/sub/patcher.py": "import rtctl.units as u\nimport rtctl.report\ndef louder():\n    u.SCALE = 3\n",
+    "rtctl/report.py": "TITLE = 'x'\n",  # imported by a file that rebinds another module's global
+    "rtctl/cli.py": "import numba\nfrom rtctl.sub import glue\n",  # numba imported, nothing compiled
+    "drivers/__init__.py": "",
+    "drivers/fast.py": "from numba import njit\nfrom drivers import table\ndef g(a):\n    return table.K * a\n"
+                       "g_fast = njit(g)\n",
+    "drivers/table.py": "K = 4\n",
+    "drivers/slow.py": "from drivers.fast import g_fast\n",
+}
+
+
+def test_the_kernel_closure_is_what_kernels_define_or_read(tmp_path):
+    write(tmp_path, PACKAGE)
+    assert kernel_closure(tmp_path) == {
+        "rtctl/sub/kern.py", "rtctl/compiled.py", "rtctl/consts.py", "rtctl/units.py",  # a kernel and what it reads
+        "rtctl/sub/patcher.py", "rtctl/report.py",  # rebinds a module's global (and what it imports)
+        "rtctl/__init__.py",  # `import rtctl.report` binds the name rtctl
+        "drivers/fast.py", "drivers/table.py",  # njit(g) called, not as a decorator
+    }  # not: glue, cli, slow (they call kernels), the packages' __init__ files
+
+
+SOURCE = '''\
+LIMIT = 3
+
+
+@kernel
+def over(x):
+    return x > LIMIT
+
+
+def clamp(x,
+          lo=-1):
+    y = max(lo,
+            x)
+    if y > LIMIT:
+        return LIMIT
+    return y
+
+
+class Box:
+    size = 2
+
+    def area(self):
+        return self.size * self.size
+'''
+
+
+def test_a_line_in_a_function_maps_to_its_statement_and_kernels_are_marked():
+    in_body, compiled = line_kinds(SOURCE)
+    assert compiled == {4, 5, 6}  # decorator to end
+    assert in_body[12] == 11 and in_body[11] == 11  # `x)` continues the statement coverage records at 11
+    assert in_body[14] == 14 and in_body[13] == 13
+    assert 9 not in in_body and 10 not in in_body  # the signature and its default run at import
+    assert 1 not in in_body and 19 not in in_body  # module and class level
+    assert in_body[22] == 22
+
+
+def mutate(line: int, old: str, new: str) -> str:
+    lines = SOURCE.splitlines(keepends=True)
+    assert old in lines[line - 1]
+    lines[line - 1] = lines[line - 1].replace(old, new, 1)
+    return "".join(lines)
+
+
+def test_the_mutated_lines_select_the_tests_that_ran_them_and_otherwise_all():
+    covered = {11: ["t_clamp", "t_both"], 13: ["t_clamp"], 14: ["t_limit"], 22: ["t_area"], 1: ["t_import"],
+               6: ["t_leaf_from_python"]}  # (a @leaf also runs as Python, and is then seen)
+    assert changed_lines(SOURCE, mutate(13, ">", ">=")) == {13}
+    assert select_tests(SOURCE, mutate(13, ">", ">="), covered) == {"t_clamp"}
+    assert select_tests(SOURCE, mutate(12, "x)", "-x)"), covered) == {"t_clamp", "t_both"}  # (the statement's)
+    assert select_tests(SOURCE, mutate(22, "*", "/"), covered) == {"t_area"}
+    assert select_tests(SOURCE, mutate(6, ">", ">="), covered) is None  # inside a kernel: coverage is blind
+    assert select_tests(SOURCE, mutate(1, "3", "4"), covered) is None  # module level
+    assert select_tests(SOURCE, mutate(10, "-1", "-2"), covered) is None  # a default, evaluated at import
+    assert select_tests(SOURCE, mutate(15, "y", "-y"), covered) is None  # no test ran it
+    assert select_tests(SOURCE, mutate(19, "2", "3"), covered) is None  # class level
+
+
+def test_coverage_contexts_name_the_tests_that_ran_each_line(tmp_path):
+    write(tmp_path, {
+        "pkg/__init__.py": "",
+        "pkg/m.py": "def a(x):\n    return x + 1\n\n\ndef b(x):\n    return x - 1\n",
+        "tests/test_m.py": """\
+            import pytest
+            from pkg.m import a, b
+            def test_a():
+                assert a(1) == 2
+            @pytest.mark.parametrize("x", [1, 2])
+            def test_b(x):
+                assert b(x) == x - 1
+            """,
+    })
+    (tmp_path / "rc").write_text(f"[run]\ninclude = {tmp_path}/pkg/m.py\n")
+    env = {**os.environ, "PYTHONPATH": str(tmp_path), "COVERAGE_FILE": str(tmp_path / "cov")}
+    base = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-o", "addopts="]
+    order = [line for line in subprocess.run(base + ["--collect-only", "tests"], cwd=tmp_path, env=env,
+                                             capture_output=True, text=True).stdout.splitlines() if "::" in line]
+    assert order == ["tests/test_m.py::test_a", "tests/test_m.py::test_b[1]", "tests/test_m.py::test_b[2]"]
+    run = subprocess.run(base + ["--cov", f"--cov-config={tmp_path / 'rc'}", "--cov-context=test", "--cov-report=",
+                                 "tests"], cwd=tmp_path, env=env, capture_output=True, text=True)
+    assert run.returncode == 0, run.stdout
+    covered = lines_to_tests(tmp_path / "cov", tmp_path, ["pkg/m.py"], order)["pkg/m.py"]
+    assert covered[2] == [0] and covered[6] == [1, 2]
+    assert covered[1] == [] and covered[5] == []  # the def lines: at import only
+
+
+def test_warm_kernels_are_linked_and_numba_never_writes_through_a_link(tmp_path):
+    """A mutant's run that compiles a new signature rewrites the index: the unmutated run's copy stays."""
+    write(tmp_path, {"k.py": "from numba import njit\n@njit(cache=True)\ndef f(x):\n    return x + 1\n"})
+    warm, linked = tmp_path / "warm", tmp_path / "linked"
+
+    def call(cache: Path, arg: str) -> None:
+        subprocess.run([sys.executable, "-c", f"import k; k.f({arg})"], cwd=tmp_path, check=True,
+                       env={**os.environ, "PYTHONPATH": str(tmp_path), "NUMBA_CACHE_DIR": str(cache)})
+
+    call(warm, "1")
+    (warm / ".lock").write_text("")
+    before = {p.relative_to(warm): p.read_bytes() for p in warm.rglob("*") if p.is_file()}
+    link_warm(warm, linked)
+    assert not (linked / ".lock").exists()
+    assert all(os.path.samefile(warm / rel, linked / rel) for rel in before if rel.name != ".lock")
+    call(linked, "1.5")  # a float: a second overload, a new index
+    assert {p.relative_to(warm): p.read_bytes() for p in warm.rglob("*") if p.is_file()} == before
+    index = next(p for p in linked.rglob("*.nbi"))
+    assert not os.path.samefile(index, warm / index.relative_to(linked))
