@@ -91,6 +91,8 @@ TARGETS = {
                "tests/vision --deselect tests/vision/test_vision_run.py", 300),
     "mcap": (["rtctl/telemetry/mcap_export.py", "rtctl/telemetry/channels.py"],  # (channels: shared with the live view)
              "tests/telemetry/test_mcap_export.py tests/telemetry/test_mcap_times_and_levels.py "
+             "tests/telemetry/test_mcap_events_and_stamps.py tests/telemetry/test_mcap_channels.py "
+             "tests/telemetry/test_foxglove_layout.py "
              "tests/telemetry/test_live_view.py", 240),
     "trajectory": (["rtctl/trajectory"], "tests/trajectory tests/moves/test_move_units.py tests/moves/test_move_targets.py",
                    240),
