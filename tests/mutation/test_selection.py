@@ -9,6 +9,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import pytest
+
 from mutant_tests import link_warm
 from selection import changed_lines, kernel_closure, line_kinds, select_tests, lines_to_tests
 
@@ -112,6 +114,7 @@ def test_the_mutated_lines_select_the_tests_that_ran_them_and_otherwise_all():
 
 
 def test_coverage_contexts_name_the_tests_that_ran_each_line(tmp_path):
+    pytest.importorskip("pytest_cov", reason="the mutation extra (pip install -e '.[mutation]') is not installed")
     write(tmp_path, {
         "pkg/__init__.py": "",
         "pkg/m.py": "def a(x):\n    return x + 1\n\n\ndef b(x):\n    return x - 1\n",
