@@ -94,3 +94,9 @@ def test_without_positions_the_joints_are_counted_from_the_commands(tmp_path):
     commands = [m for topic, _, m in got if topic == "/joint_commands"]
     assert len(commands) == 3 and all(m["name"] == ["j1", "j2", "j3"] for m in commands)
     assert json.loads(metadata["rtctl"]["joints"]) == ["j1", "j2", "j3"]
+
+
+def test_a_recording_without_joint_columns_names_no_joints(tmp_path):
+    got, metadata = _export(tmp_path, {"s": np.ones((3, 2))}, {})
+    assert {topic for topic, _, _ in got} == {"/controller/s", "/events"}
+    assert json.loads(metadata["rtctl"]["joints"]) == []
