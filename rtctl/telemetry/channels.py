@@ -91,8 +91,7 @@ def topics(shapes: Mapping[str, tuple], meta: Mapping) -> list[Topic]:
 
 def joint_names(meta: Mapping, shapes: Mapping[str, tuple]) -> list[str]:
     """The run's joint names, or j1 … jn, n from the first per-joint column recorded."""
-    per_joint = [shapes[c] for c in ("q", "qd", "q_des", "qd_des", "tau") if c in shapes]
-    n = int(np.prod(per_joint[0])) if per_joint else 0
+    n = next((int(np.prod(shapes[c])) for c in ("q", "qd", "q_des", "qd_des", "tau") if c in shapes), 0)
     return list(meta.get("joints") or [f"j{j + 1}" for j in range(n)])
 
 

@@ -50,10 +50,11 @@ import tempfile
 import time
 from pathlib import Path
 
+from mutant_tests import TOOL_ERROR  # what the test command prints when it fails itself (this script's folder)
+
 ROOT = Path(__file__).resolve().parents[2]
 CR = [sys.executable, "-m", "cosmic_ray.cli"]
 PYTEST = f"{sys.executable} -m pytest -x -q -p no:cacheprovider -p no:randomly -o addopts="
-TOOL_ERROR = "MUTATION-TOOL-ERROR"  # what mutant_tests.py prints when it fails itself
 TOOLS = ".mutation"  # in the copy: the test command, what the unmutated run recorded, the warm kernels
 
 TARGETS = {
