@@ -175,7 +175,7 @@ class Daemon:
                 dev.close()
             self.moves.close()
             if server is not None:
-                server.close()
+                server.close(stopping=self.stop_reason or "its run ended")
             run_records.finish(self)
             for s, h in previous.items():
                 signal.signal(s, h)

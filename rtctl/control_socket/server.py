@@ -25,6 +25,7 @@ Robustness: a request above the size limit, a frame cut short (the peer closed, 
 for ``request_timeout`` s mid-frame), malformed msgpack, an unknown command or wrong fields
 get ``{"ok": False, "error": ...}``; the handler is not called and the server keeps serving.
 A handler that raises answers ``ok: False`` too (and is logged): the loop never sees it.
+At exit (``close(stopping=...)``) every request already sent is answered, none reset.
 """
 from __future__ import annotations
 
@@ -36,6 +37,7 @@ import time
 
 import structlog
 
+from rtctl.control_socket.connection import Deferred, Connection, first_frame, urgent
 from rtctl.control_socket.framing import HEADER, decode, encode
 from rtctl.control_socket.requests import MAX_REQUEST_BYTES, InvalidRequest, validate
 from rtctl.errors import ControlSocketError, RtctlError
@@ -49,54 +51,6 @@ _BROKEN = select.EPOLLHUP | select.EPOLLERR
 _MAX_PENDING_REPLY = 1 << 20  # a client that reads nothing back is dropped past this
 ACCEPTS_PER_POLL = 4  # a connection storm costs a poll at most this many accepts
 BACKLOG = 64  # connections the kernel queues between polls (a full queue makes connect() wait)
-
-
-_URGENT = frozenset({"stop", "estop"})
-
-
-def _urgent(body: bytes) -> bool:
-    """A stop or an e-stop (a few bytes of msgpack): served even past the poll's budget."""
-    if len(body) > 32:
-        return False
-    try:
-        request = decode(body)
-    except ValueError:
-        return False
-    return isinstance(request, dict) and request.get("cmd") in _URGENT
-
-
-class Deferred:
-    """A reply the handler gives later: return one from the handler, :meth:`resolve` it from
-    the loop when the answer is known (a move once it is planned). Until then the connection
-    waits — its further requests stay queued, it is not timed out as idle — and the server
-    sends the reply at its first poll after :meth:`resolve`."""
-
-    __slots__ = ("reply",)
-
-    def __init__(self):
-        self.reply: dict | None = None
-
-    def resolve(self, reply: dict) -> None:
-        if self.reply is None:  # the first answer stands (a cancel after the swap changes nothing)
-            self.reply = reply
-
-
-class _Connection:
-    __slots__ = ("sock", "inbuf", "outbuf", "deadline", "closing", "last_request", "waiting")
-
-    def __init__(self, sock: socket.socket, now: float, deadline: float):
-        self.sock = sock
-        self.inbuf = bytearray()
-        self.outbuf = bytearray()
-        self.deadline = deadline
-        self.closing = False  # close once outbuf is sent (after a framing error)
-        self.last_request = now  # accepted, or its last request answered: who is dropped first
-        self.waiting: Deferred | None = None  # a request answered later
-
-    def eviction_rank(self) -> tuple:
-        """Lower is dropped first: closing, then idle, then mid-frame; oldest first in each."""
-        busy = 0 if self.closing else (2 if self.inbuf or self.waiting else 1)
-        return busy, self.last_request
 
 
 class ControlServer:
@@ -121,7 +75,7 @@ class ControlServer:
         self.budget_ns = None if budget_s is None else int(budget_s * 1e9)
         self._serve_until = 0  # this poll's budget ends (monotonic ns)
         self._served = 0  # requests handled in this poll
-        self._clients: dict[int, _Connection] = {}
+        self._clients: dict[int, Connection] = {}
         self._pending: list[int] = []  # connections holding a further (pipelined) frame
         self._waiting: list[int] = []  # connections whose request's reply is Deferred
         self._next_sweep = 0.0
@@ -174,10 +128,17 @@ class ControlServer:
         sock.setblocking(False)
         return sock
 
-    def close(self) -> None:
-        """Close every connection and remove the socket file (if it is still ours); safe twice."""
+    def close(self, stopping: str | None = None) -> None:
+        """Close every connection and remove the socket file (if it is still ours); safe twice.
+
+        ``stopping`` (why the daemon stops): answer first every request already sent — on an
+        open connection, a move's reply resolved since the last poll, or a connection still in
+        the accept queue — so that a client racing the daemon's exit gets a reason, not a reset
+        connection: ``stop``/``estop`` are done (``ok``), anything else is refused naming it."""
         if self._listener is None:
             return
+        if stopping is not None:
+            self._answer_all(stopping)
         for fd in list(self._clients):
             self._drop(fd)
         self._listener.close()
@@ -188,6 +149,42 @@ class ControlServer:
                 os.unlink(self.path)
         except FileNotFoundError:
             pass
+
+    def _answer_all(self, reason: str) -> None:
+        """Bounded (the accept queue's BACKLOG, one drain per connection): run once, at exit."""
+        for _ in range(BACKLOG):
+            try:
+                sock, _ = self._listener.accept()
+            except OSError:  # (BlockingIOError: the queue is empty)
+                break
+            sock.setblocking(False)
+            now = time.monotonic()
+            self._clients[sock.fileno()] = Connection(sock, now, now)
+            self._poller.register(sock, _IN)
+        self._send_deferred()
+        for fd, conn in list(self._clients.items()):
+            asked = self._drain(conn) or conn.waiting is not None
+            if conn.closing or not asked:
+                continue  # nothing asked (or answered already): a plain EOF will do
+            done = conn.waiting is None and urgent(first_frame(conn.inbuf))
+            conn.waiting = None
+            conn.closing = True
+            conn.inbuf.clear()
+            self._reply(fd, conn, {"ok": True, "stopping": True} if done
+                        else {"ok": False, "error": f"the daemon is stopping ({reason})", "stopping": True})
+
+    def _drain(self, conn: Connection) -> bool:
+        """Read what the client has sent (a socket closed with unread data resets its peer);
+        True if a request, whole or in part, is waiting."""
+        for _ in range(4):
+            try:
+                data = conn.sock.recv(self.max_request + HEADER.size)
+            except OSError:  # (BlockingIOError: nothing more)
+                break
+            if not data:
+                break
+            conn.inbuf += data
+        return bool(conn.inbuf)
 
     def __enter__(self):
         return self
@@ -267,12 +264,12 @@ class ControlServer:
             sock.setblocking(False)
             now = time.monotonic()
             fd = sock.fileno()
-            conn = self._clients[fd] = _Connection(sock, now, now + self.idle_timeout)
+            conn = self._clients[fd] = Connection(sock, now, now + self.idle_timeout)
             self._poller.register(sock, _IN)
             handled += self._receive(fd, conn)
         return handled
 
-    def _receive(self, fd: int, conn: _Connection) -> int:
+    def _receive(self, fd: int, conn: Connection) -> int:
         if len(conn.inbuf) >= self.max_request + HEADER.size:
             return 0  # a whole frame is buffered already: serve it (via _pending) before reading on
         try:
@@ -290,7 +287,7 @@ class ControlServer:
         conn.inbuf += data
         return self._handle_frame(fd, conn)
 
-    def _handle_frame(self, fd: int, conn: _Connection) -> int:
+    def _handle_frame(self, fd: int, conn: Connection) -> int:
         if conn.waiting is not None:  # one request at a time per connection, answered in order
             return 0
         if len(conn.inbuf) < HEADER.size:
@@ -304,7 +301,7 @@ class ControlServer:
             conn.deadline = time.monotonic() + self.request_timeout
             return 0
         body = bytes(conn.inbuf[HEADER.size:HEADER.size + length])
-        if self._over_budget() and not _urgent(body):
+        if self._over_budget() and not urgent(body):
             self._pending.append(fd)  # served first at the next poll
             return 0
         del conn.inbuf[:HEADER.size + length]
@@ -346,7 +343,7 @@ class ControlServer:
         reply.setdefault("ok", True)
         return reply
 
-    def _reply(self, fd: int, conn: _Connection, reply: dict) -> None:
+    def _reply(self, fd: int, conn: Connection, reply: dict) -> None:
         try:
             frame = encode(reply)
         except (TypeError, ValueError) as exc:
@@ -355,7 +352,7 @@ class ControlServer:
         conn.outbuf += frame
         self._send(fd, conn)
 
-    def _send(self, fd: int, conn: _Connection) -> None:
+    def _send(self, fd: int, conn: Connection) -> None:
         try:
             sent = conn.sock.send(conn.outbuf) if conn.outbuf else 0
         except (BlockingIOError, InterruptedError):
@@ -370,7 +367,7 @@ class ControlServer:
         # A closing connection is no longer read; an unsent reply waits for EPOLLOUT.
         self._poller.modify(conn.sock, (0 if conn.closing else _IN) | (_OUT if conn.outbuf else 0))
 
-    def _fail(self, fd: int, conn: _Connection, error: str) -> None:
+    def _fail(self, fd: int, conn: Connection, error: str) -> None:
         """A framing error: the stream cannot be resynchronised, so reply and close."""
         conn.closing = True
         conn.inbuf.clear()

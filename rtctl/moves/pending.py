@@ -30,7 +30,7 @@ import time
 
 import structlog
 
-from rtctl.control_socket.server import Deferred
+from rtctl.control_socket.connection import Deferred
 from rtctl.moves.wire import Inbox
 from rtctl.trajectory import JointTrajectory
 

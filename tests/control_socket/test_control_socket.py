@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from rtctl.control_socket import ControlServer, request
+from rtctl.control_socket.connection import Deferred
 from rtctl.errors import ControlSocketError, RtctlError
 
 pytestmark = pytest.mark.realtime  # (tests/conftest.py)
@@ -293,3 +294,34 @@ def test_idle_poll_does_nothing(sock_path):
         assert [server.poll() for _ in range(100)] == [0] * 100 and calls == []
     finally:
         server.close()
+
+
+def test_a_request_racing_the_daemons_exit_is_answered_not_reset(sock_path):
+    """At exit every request already sent gets a reply naming why the daemon stops — on a
+    connection accepted before its request arrived, one still in the accept queue, a move whose
+    reply was resolved after the last poll — and stop/estop are simply done. Closed without
+    reading them, each of these clients would see ECONNRESET (planted: close() without stopping)."""
+    pending = Deferred()
+    server = ControlServer(sock_path, lambda r: pending if r["cmd"] == "move" else {}, n_joints=6)
+    try:
+        mover, early = raw_connect(sock_path), raw_connect(sock_path)
+        mover.sendall(frame(msgpack.packb({"cmd": "move", "q": [0.0] * 6})))
+        time.sleep(0.05)
+        while server.poll() < 1:  # the move is handled (answered later); `early` accepted, silent
+            time.sleep(0.001)
+        early.sendall(frame(msgpack.packb({"cmd": "status"})))
+        queued, stopper = raw_connect(sock_path), raw_connect(sock_path)  # never accepted
+        queued.sendall(frame(msgpack.packb({"cmd": "get", "key": "ct.kp"})))
+        stopper.sendall(frame(msgpack.packb({"cmd": "estop"})))
+        idle = raw_connect(sock_path)  # asks nothing: closed with a plain EOF
+        time.sleep(0.05)
+        pending.resolve({"ok": False, "error": "move cancelled: the daemon is stopping"})
+    finally:
+        server.close(stopping="duration reached")
+    refused = {"ok": False, "error": "the daemon is stopping (duration reached)", "stopping": True}
+    assert read_reply(early) == refused and read_reply(queued) == refused
+    assert read_reply(stopper) == {"ok": True, "stopping": True}
+    assert read_reply(mover) == {"ok": False, "error": "move cancelled: the daemon is stopping"}
+    for s in (mover, early, queued, stopper, idle):
+        assert s.recv(1) == b""  # then closed, not reset
+        s.close()

@@ -113,7 +113,7 @@ def test_defect_2_a_storm_of_every_command_from_3_clients_delays_no_tick_by_a_pe
 def test_defect_7_a_move_sent_after_stop_is_refused(write_config, daemon):
     from runtime_helpers import BASE
 
-    d = daemon(write_config(BASE), "--duration", 60)
+    d = daemon(write_config(BASE), "--duration", 3600)  # (lock-step: 60 s of run can be gone in one wall second)
     d.wait_ready()
     frames = b"".join(struct.pack(">I", len(b)) + b for b in (msgpack.packb({"cmd": "stop"}),
                                                               msgpack.packb({"cmd": "move", "q": [0.1] * 6})))
@@ -140,7 +140,9 @@ def test_defect_5_reset_re_enables_all_devices_or_none(registry, write_config, t
     from test_io_devices import config
 
     cfg = config(write_config, "activations = 1")  # bring-up's activation, then no more
-    args = SimpleNamespace(telemetry=None, socket=str(tmp_path / "s.sock"), enforce_rt=False, duration=30.0,
+    # lock-step runs ~60× real time: 30 s of run ended (a measured CI failure) between the e-stop
+    # and the next poll for its verdict; the operator's `stop` ends this one
+    args = SimpleNamespace(telemetry=None, socket=str(tmp_path / "s.sock"), enforce_rt=False, duration=3600.0,
                            summary=None, log_level="error")
     d = Daemon(cfg, build(cfg), args)
     seen = {}

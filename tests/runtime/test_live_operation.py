@@ -98,7 +98,11 @@ def test_a_gain_set_mid_run_changes_the_response_as_the_new_gain_predicts(write_
         "substeps = 4", "substeps = 4\nfriction = 1.0\narmature = true").replace(
         "waypoints = [[0, 45, -180, 0, 45, 0], [30, 30, -160, 20, 60, 30], [0, 45, -180, 0, 45, 0]]",
         "waypoints = [" + ", ".join(["[0, 45, -180, 0, 45, 0], [30, 30, -160, 20, 60, 30]"] * 6)
-        + ", [0, 45, -180, 0, 45, 0]]\ndurations = [0.5" + ", 1.0" * 12 + "]")  # A → B → A … from 0.5 s, period 2 s
+        + ", [0, 45, -180, 0, 45, 0]]\ndurations = [0.5" + ", 1.0" * 12 + "]").replace(
+        # paced at twice real time, not as fast as possible: a lock-step run ended (and closed its socket)
+        # before a test descheduled for a second on a loaded machine had seen t = 3.7 s; paced, the set has
+        # 2.6 s of wall time to land in the window the comparison needs (3.7–9 s), whatever else runs
+        "realtime_factor = 0.0", "realtime_factor = 2.0")  # A → B → A … from 0.5 s, period 2 s
     telemetry = tmp_path / "run.msgpack"
     d = daemon(write_config(text), "--telemetry", telemetry, "--duration", 12.5)
     d.wait_ready()
@@ -113,7 +117,7 @@ def test_a_gain_set_mid_run_changes_the_response_as_the_new_gain_predicts(write_
     assert changed == pytest.approx(kd["t"], abs=2e-3) and changed >= 3.7  # where it was asked, recorded
     assert set(tel["ct.kp"][t < 3.7, 0]) == {400.0} and set(tel["ct.kp"][t > changed, 0]) == {1600.0}
     # B → A → B before the set, and the same two segments a whole number of periods later, once the
-    # new gains' transient is over (when the set lands depends on the machine: the run is as fast as possible)
+    # new gains' transient is over (when the set lands depends on the machine: a poll or two after 3.7 s)
     start = 1.5 + 2.0 * np.ceil((changed + 0.5 - 1.5) / 2.0)
     assert start + 2.0 <= 12.5, f"the set landed too late ({changed:.2f} s) to compare a period after it"
     before = np.sqrt(np.mean(e[(t >= 1.5) & (t < 3.5)] ** 2, axis=0))
