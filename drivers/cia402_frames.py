@@ -22,7 +22,6 @@ class Cia402Frames:
         self._not_enabled = 0  # drives whose last statusword is not OPERATION ENABLED
         self._fresh = np.zeros(n, dtype=bool)  # every TPDO of the drive arrived in the last cycle
         self._got = [0] * n  # per drive: bit k set when TPDO k arrived in this cycle
-        self._awaited = None  # the drives this cycle waits for (a mask; None: all)
         self._replies_by = 0.0  # time.monotonic() until which the TPDOs of the last SYNC are awaited
         self._all_tpdos = (1 << len(layout.tpdos)) - 1
         self._emcy = np.zeros(n, dtype=np.int64)  # active EMCY code per drive (0: none)
@@ -67,14 +66,13 @@ class Cia402Frames:
                 pdo.pack_into(msg.data, cmd)
 
     # -- one SYNC cycle -----------------------------------------------------------------------
-    def _cycle(self, timeout: float, rows=None) -> int:
+    def _cycle(self, timeout: float) -> int:
         """One SYNC cycle at once (bring-up, state changes): send, then collect the TPDOs for up
-        to ``timeout`` s — of the drives in ``rows`` (a mask; default all); returns how many
-        drives did not send all of theirs."""
-        self._send_sync(timeout, rows)
+        to ``timeout`` s; returns how many drives did not send all of theirs."""
+        self._send_sync(timeout)
         return self._collect()
 
-    def _send_sync(self, timeout: float, rows=None) -> None:
+    def _send_sync(self, timeout: float) -> None:
         """Take what arrived since the last collection (EMCY, heartbeats, a late TPDO: TPDOs
         carry no cycle number, so one left in the buffer would pass for an answer to this SYNC),
         send the RPDOs and a SYNC; the TPDOs are awaited until ``timeout`` s from now
@@ -84,7 +82,6 @@ class Cia402Frames:
         got = self._got
         for row in range(len(got)):
             got[row] = 0
-        self._awaited = rows
         for msgs in self._rpdo_msgs:
             for _, msg in msgs:
                 bus.send(msg)
@@ -96,12 +93,10 @@ class Cia402Frames:
     def _collect(self) -> int:
         """The TPDOs of the last SYNC: what has arrived, and what arrives before its deadline
         (none left to wait for once it passed); returns how many drives did not send all."""
-        got, rows = self._got, self._awaited
-        full = self._all_tpdos
+        got, full = self._got, self._all_tpdos
         pending = 0  # (a plain loop: no generator object per tick)
         for row in range(len(got)):
-            if rows is None or rows[row]:
-                pending += full.bit_count() - got[row].bit_count()
+            pending += full.bit_count() - got[row].bit_count()
         self._receive(pending, max(0.0, self._replies_by - time.monotonic()), self._take, self._acks_per_send)
         fresh, values, sw = self._fresh, self._rows, self._statusword
         missing = not_enabled = 0
@@ -121,8 +116,7 @@ class Cia402Frames:
         return self._take(msg, late=True)
 
     def _take(self, msg, late: bool = False) -> int:
-        """Route one received frame; 1 when it is a TPDO this cycle still waited for (of a drive
-        in ``_awaited``, a mask, or any when None), else 0."""
+        """Route one received frame; 1 when it is a TPDO this cycle still waited for, else 0."""
         if msg.is_error_frame:
             self.counters["error_frames"] += 1
             return 0
@@ -144,7 +138,7 @@ class Cia402Frames:
             if got & bit:
                 return 0
             self._got[row] = got | bit
-            return 1 if self._awaited is None or self._awaited[row] else 0
+            return 1
         if kind == EMCY:
             code = c.emcy_code(data)
             if code is None:

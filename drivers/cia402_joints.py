@@ -317,25 +317,24 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         self._cycle_t = t  # its TPDOs are collected by the next read
         return Status.DEACTIVATE if self._drives_off is not None else Status.OK
 
-    def _cycle_until(self, controlword, done, what: str, rows=None, budget: float | None = None) -> None:
+    def _cycle_until(self, controlword, done, what: str, budget: float | None = None) -> None:
         """SYNC cycles with ``controlword(row, statusword)`` and zero torque until ``done(statusword)``
-        for every drive (of ``rows``, a mask), within ``budget`` s (default ``exchange_timeout``);
-        HardwareError naming the others."""
+        for every drive, within ``budget`` s (default ``exchange_timeout``); HardwareError naming
+        the others."""
         if self.bus is None:
             raise HardwareError(f"{self.name}: {what}: the bus is not open")
         budget = self.exchange_timeout if budget is None else budget
-        rows = np.ones(len(self.joints), dtype=bool) if rows is None else rows
         self._cycle_t = None  # a tick's SYNC still uncollected is superseded by these
         end = time.monotonic() + budget
         for _ in range(STATE_MACHINE_CYCLES):
             self._pack_each(controlword)
             try:
-                self._cycle(max(0.0, end - time.monotonic()), rows)
+                self._cycle(max(0.0, end - time.monotonic()))
             except Exception as e:
                 self._close_bus()
                 raise HardwareError(f"{self.name}: {what}: bus error: {type(e).__name__}: {e}") from e
             self._stamp = self._clock()
-            ok = [not r or (f and done(int(w))) for r, f, w in zip(rows, self._fresh, self._statusword)]
+            ok = [f and done(int(w)) for f, w in zip(self._fresh, self._statusword)]
             if all(ok):
                 return
             if time.monotonic() > end:

@@ -87,6 +87,8 @@ class Bridge:
         while not stop.is_set():
             try:
                 status = request(self.socket, "status", timeout=REQUEST_TIMEOUT_S)
+                if not status["ok"]:  # (at its exit the daemon refuses it: "the daemon is stopping (…)")
+                    raise ControlSocketError(status.get("error") or "status refused")
                 failures = 0
             except ControlSocketError as e:
                 failures += 1

@@ -104,6 +104,18 @@ def test_a_change_is_one_event_and_a_daemon_gone_ends_the_bridge(cell, monkeypat
     assert [m["tick"] for key, m in log if key.endswith("/state")] == [0, 1, 2, 3]  # (status(9) never asked)
 
 
+def test_a_status_refused_at_the_daemons_exit_is_not_a_state(cell, monkeypatch):
+    """At its exit the daemon answers ``status`` with a refusal (no t, no tick: a KeyError ended the
+    bridge with exit 1 in CI); it counts towards "daemon gone" like a connection that fails."""
+    stopping = {"ok": False, "error": "the daemon is stopping (stop requested)", "stopping": True}
+    code, log, _ = run_bridge(cell, monkeypatch, [status(0), status(1, verdict="DEACTIVATE"), stopping,
+                                                  ControlSocketError("no rtctl daemon"), stopping])
+    events = [m for key, m in log if key.endswith("/events")]
+    assert code == 0 and [m["tick"] for key, m in log if key.endswith("/state")] == [0, 1]
+    assert [e["event"] for e in events] == ["verdict changed", "daemon gone"]
+    assert events[-1]["error"] == "the daemon is stopping (stop requested)"
+
+
 def test_forward_refuses_what_the_cell_does_not_forward_and_garbled_payloads():
     assert "unknown command 'set'" in bridge_module.forward("/x.sock", "set", None)["error"]
     assert "not JSON" in bridge_module.forward("/x.sock", "move", b"{q:")["error"]
