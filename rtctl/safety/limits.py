@@ -35,8 +35,8 @@ def limits_table(q_min, q_max, v_max, tau_max, *, position_margin=0.0, velocity_
     """(9, n) table of hard/soft position limits, velocity, torque, impedance-gain bounds and
     the following-error window."""
     q_min, q_max, v_max, tau_max = (np.asarray(x, float) for x in (q_min, q_max, v_max, tau_max))
-    n = q_min.shape[0]
-    if not all(x.shape == (n,) for x in (q_max, v_max, tau_max)):
+    n = q_min.shape[0] if q_min.ndim == 1 else -1
+    if n < 0 or not all(x.shape == (n,) for x in (q_max, v_max, tau_max)):
         raise ValueError("q_min, q_max, v_max and tau_max need one value per joint")
     if np.any(q_min >= q_max) or np.any(v_max <= 0) or np.any(tau_max <= 0) or velocity_factor <= 0:
         raise ValueError("need q_min < q_max, v_max > 0, tau_max > 0, velocity_factor > 0")
