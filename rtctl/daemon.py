@@ -156,7 +156,7 @@ class Daemon:
                 self.moves.warm()
             if self.log_in_background:  # (a thread: only after the forks) a slow log reader must not stall a tick
                 logs.enter_context(written_in_background())
-            if self._bring_up(compiling):
+            if self._bring_up(compiling, server):
                 self._loop(server)
             self._fault_if_latched()
         except HardwareError as e:
@@ -216,9 +216,10 @@ class Daemon:
             return replace(rt, priority=0), True
         return rt, False
 
-    def _bring_up(self, compiling: Precompile) -> bool:
+    def _bring_up(self, compiling: Precompile, server: ControlServer) -> bool:
         """Configure the devices, prepare the kernels, plan, activate: True when started, False
-        when a stop came while the kernels compiled (the drives were never enabled)."""
+        when a stop or an e-stop came while the kernels compiled (the drives were never enabled:
+        the socket serves those two meanwhile, the other requests wait for the loop)."""
         for dev in self.rt.all_devices:
             try:
                 dev.configure()
@@ -237,7 +238,12 @@ class Daemon:
             np.put(state.position, idx, dev.state.position)
             np.put(state.velocity, idx, dev.state.velocity)
         guarded.check_start(self.cfg, state.position)
-        if not compiling.wait(stop=lambda: self.stop_reason is not None):
+        server.urgent_only = True
+        started = compiling.wait(stop=lambda: self.stop_reason is not None or self.estopped, serve=server.poll)
+        server.urgent_only = False
+        if not started:
+            if self.estopped:
+                self.stop_reason = "operator e-stop before start: no drive was enabled"
             log.info("stopped before start", reason=self.stop_reason)
             return False
         compiling.finish()

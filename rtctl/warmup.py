@@ -34,6 +34,7 @@ import structlog
 log = structlog.get_logger("rtctl.warmup")
 
 HEARTBEAT_S = 1.0  # the longest the daemon stays silent while kernels load or compile
+SERVE_EVERY_S = 0.01  # how often wait() serves the control socket
 NOTE = "the first run after an install or update compiles them; later runs load them from the cache"
 
 Group = tuple[str, Callable[[], object]]
@@ -121,15 +122,19 @@ class Precompile:
         """Hand ``worker`` the next group, or tell it to leave."""
         worker.give(self.queue.pop(0) if self.queue else None)
 
-    def wait(self, stop: Callable[[], bool] = lambda: False) -> bool:
+    def wait(self, stop: Callable[[], bool] = lambda: False, serve: Callable[[], object] | None = None) -> bool:
         """Until every worker has finished (True) or ``stop()`` (False, the workers stopped),
-        logging each group as it is ready."""
+        logging each group as it is ready; ``serve()`` every ``SERVE_EVERY_S`` meanwhile (the
+        daemon's control socket: a ``stop`` is answered in milliseconds, not after the compile)."""
+        timeout = HEARTBEAT_S / 4 if serve is None else SERVE_EVERY_S
         try:
             while self.workers:
+                if serve is not None:
+                    serve()
                 if stop():
                     self.abort()
                     return False
-                ready, _, _ = select.select(list(self.workers), [], [], HEARTBEAT_S / 4)
+                ready, _, _ = select.select(list(self.workers), [], [], timeout)
                 for fd in ready:
                     self._read(self.workers[fd])
         except BaseException:

@@ -27,6 +27,14 @@ def first_frame(inbuf: bytearray) -> bytes:
     return bytes(inbuf[HEADER.size:HEADER.size + length])
 
 
+def frame_waiting(inbuf: bytearray) -> bool:
+    """A whole frame is buffered: it waits its turn (the poll's budget, a Deferred before it)."""
+    if len(inbuf) < HEADER.size:
+        return False
+    (length,) = HEADER.unpack_from(inbuf)
+    return len(inbuf) >= HEADER.size + length
+
+
 class Deferred:
     """A reply the handler gives later: return one from the handler, :meth:`resolve` it from
     the loop when the answer is known (a move once it is planned). Until then the connection
@@ -54,6 +62,19 @@ class Connection:
         self.closing = False  # close once outbuf is sent (after a framing error)
         self.last_request = now  # accepted, or its last request answered: who is dropped first
         self.waiting: Deferred | None = None  # a request answered later
+
+    def drain(self, chunk: int) -> bool:
+        """Read what the client has sent (a socket closed with unread data resets its peer);
+        True if a request, whole or in part, is waiting."""
+        for _ in range(4):
+            try:
+                data = self.sock.recv(chunk)
+            except OSError:  # (BlockingIOError: nothing more)
+                break
+            if not data:
+                break
+            self.inbuf += data
+        return bool(self.inbuf)
 
     def eviction_rank(self) -> tuple:
         """Lower is dropped first: closing, then idle, then mid-frame; oldest first in each."""

@@ -25,7 +25,8 @@ Robustness: a request above the size limit, a frame cut short (the peer closed, 
 for ``request_timeout`` s mid-frame), malformed msgpack, an unknown command or wrong fields
 get ``{"ok": False, "error": ...}``; the handler is not called and the server keeps serving.
 A handler that raises answers ``ok: False`` too (and is logged): the loop never sees it.
-At exit (``close(stopping=...)``) every request already sent is answered, none reset.
+At exit (``close(stopping=...)``) every request already sent is answered, none reset. With
+``urgent_only`` (the daemon is starting) only stop and estop are served; the rest wait.
 """
 from __future__ import annotations
 
@@ -37,7 +38,7 @@ import time
 
 import structlog
 
-from rtctl.control_socket.connection import Deferred, Connection, first_frame, urgent
+from rtctl.control_socket.connection import Connection, Deferred, first_frame, frame_waiting, urgent
 from rtctl.control_socket.framing import HEADER, decode, encode
 from rtctl.control_socket.requests import MAX_REQUEST_BYTES, InvalidRequest, validate
 from rtctl.errors import ControlSocketError, RtctlError
@@ -73,6 +74,7 @@ class ControlServer:
         self.request_timeout = request_timeout
         self.idle_timeout = idle_timeout
         self.budget_ns = None if budget_s is None else int(budget_s * 1e9)
+        self.urgent_only = False  # serve stop and estop only; the rest waits (the daemon is starting)
         self._serve_until = 0  # this poll's budget ends (monotonic ns)
         self._served = 0  # requests handled in this poll
         self._clients: dict[int, Connection] = {}
@@ -163,7 +165,7 @@ class ControlServer:
             self._poller.register(sock, _IN)
         self._send_deferred()
         for fd, conn in list(self._clients.items()):
-            asked = self._drain(conn) or conn.waiting is not None
+            asked = conn.drain(self.max_request + HEADER.size) or conn.waiting is not None
             if conn.closing or not asked:
                 continue  # nothing asked (or answered already): a plain EOF will do
             done = conn.waiting is None and urgent(first_frame(conn.inbuf))
@@ -172,19 +174,6 @@ class ControlServer:
             conn.inbuf.clear()
             self._reply(fd, conn, {"ok": True, "stopping": True} if done
                         else {"ok": False, "error": f"the daemon is stopping ({reason})", "stopping": True})
-
-    def _drain(self, conn: Connection) -> bool:
-        """Read what the client has sent (a socket closed with unread data resets its peer);
-        True if a request, whole or in part, is waiting."""
-        for _ in range(4):
-            try:
-                data = conn.sock.recv(self.max_request + HEADER.size)
-            except OSError:  # (BlockingIOError: nothing more)
-                break
-            if not data:
-                break
-            conn.inbuf += data
-        return bool(conn.inbuf)
 
     def __enter__(self):
         return self
@@ -270,8 +259,8 @@ class ControlServer:
         return handled
 
     def _receive(self, fd: int, conn: Connection) -> int:
-        if len(conn.inbuf) >= self.max_request + HEADER.size:
-            return 0  # a whole frame is buffered already: serve it (via _pending) before reading on
+        if frame_waiting(conn.inbuf):
+            return 0  # serve it (via _pending) before reading on — the end of the stream too
         try:
             data = conn.sock.recv(self.max_request + HEADER.size)
         except (BlockingIOError, InterruptedError):
@@ -301,8 +290,9 @@ class ControlServer:
             conn.deadline = time.monotonic() + self.request_timeout
             return 0
         body = bytes(conn.inbuf[HEADER.size:HEADER.size + length])
-        if self._over_budget() and not urgent(body):
-            self._pending.append(fd)  # served first at the next poll
+        if (self.urgent_only or self._over_budget()) and not urgent(body):
+            self._pending.append(fd)  # served first at the next poll (that serves it)
+            conn.deadline = float("inf")  # waiting its turn is not stalling mid-frame
             return 0
         del conn.inbuf[:HEADER.size + length]
         self._served += 1

@@ -325,3 +325,23 @@ def test_a_request_racing_the_daemons_exit_is_answered_not_reset(sock_path):
     for s in (mover, early, queued, stopper, idle):
         assert s.recv(1) == b""  # then closed, not reset
         s.close()
+
+
+def test_requests_held_for_later_polls_are_served_though_their_clients_half_closed(sock_path):
+    """Past the poll's budget a request waits for the next poll; its client may meanwhile shut its
+    sending side (as scripts do after one request). The end of its stream is not a truncated
+    frame: every request is answered (the third was failed as "truncated request")."""
+    server = ControlServer(sock_path, lambda r: {"seen": r["cmd"]}, budget_s=0.0)
+    try:
+        clients = [raw_connect(sock_path) for _ in range(3)]
+        time.sleep(0.05)
+        server.poll()  # accepted, nothing to read yet
+        for s in clients:
+            s.sendall(frame(msgpack.packb({"cmd": "status"})))
+            s.shutdown(socket.SHUT_WR)
+        time.sleep(0.05)
+        for _ in range(5):  # one request per poll (the budget is spent by the first)
+            server.poll()
+        assert [read_reply(s) for s in clients] == [{"ok": True, "seen": "status"}] * 3
+    finally:
+        server.close()

@@ -203,3 +203,39 @@ def test_the_real_time_knobs_apply_after_the_kernels_and_a_lock_step_run_says_on
     assert len(fifo) == 1 and fifo[0]["level"] == "warning" and "lock-step" in fifo[0]["detail"], fifo
     knobs = [i for i, e in enumerate(events) if e == "rt knob"]
     assert knobs and events.index("kernels loaded") < knobs[0] and knobs[-1] < events.index("started")
+
+
+@pytest.mark.parametrize("cmd, code, reason", [("stop", 0, "stop requested"),
+                                               ("estop", 3, "operator e-stop before start: no drive was enabled")])
+def test_a_stop_while_the_kernels_compile_is_answered_then_and_enables_no_drive(write_config, tmp_path, cmd, code,
+                                                                                 reason):
+    """A first run compiles its kernels for tens of seconds with the socket open; `stop` and
+    `estop` are served meanwhile (they waited for the first tick, and the CLI gives up after 5 s):
+    the workers stop, no drive is enabled, the run ends — `estop` as a fault (exit 3). Without the
+    serving, the reply came only after the loop had started ("started" logged, drives enabled)."""
+    import os
+    import subprocess
+    import sys
+
+    from rtctl.control_socket import request
+    from runtime_helpers import ROOT
+
+    sock, summary = tmp_path / "s.sock", tmp_path / "summary.json"
+    env = os.environ | {"NUMBA_CACHE_DIR": str(tmp_path / "kernels")}  # empty: this run compiles
+    proc = subprocess.Popen([sys.executable, "-m", "rtctl.cli", "run", str(write_config(PACED)), "--socket", str(sock),
+                             "--summary", str(summary), "--log-format", "json"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT, env=env)
+    try:
+        end = time.monotonic() + 60
+        while not sock.exists() and proc.poll() is None and time.monotonic() < end:
+            time.sleep(0.01)
+        reply = request(sock, cmd, timeout=120)
+        out, err = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert reply["ok"], reply
+    events = [json.loads(line) for line in out.splitlines()]
+    names = [e["event"] for e in events]
+    assert "preparing kernels" in names and "started" not in names, names  # answered while compiling
+    assert proc.returncode == code, err
+    assert json.loads(summary.read_text())["stop_reason"] == reason
