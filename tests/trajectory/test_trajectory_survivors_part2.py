@@ -11,6 +11,7 @@ import pytest
 
 from rtctl.errors import TrajectoryError
 from rtctl.trajectory import JointLimits, JointTrajectory, hold, point_to_point, retarget, through_waypoints
+from rtctl.trajectory.planning import MAX_DURATION_S
 from rtctl.trajectory.quintic import extrema, fits, rest_to_rest_duration, shortest_duration
 from rtctl.trajectory.smooth import fit_durations, via_states
 
@@ -79,6 +80,13 @@ def test_limits_are_frozen():
 def test_position_limits_of_the_wrong_shape_are_refused():
     with pytest.raises(TrajectoryError, match="q_min < q_max, one per joint"):
         JointLimits([1.0, 1.0], [1.0, 1.0], [-1.0], [1.0, 1.0])  # q_min for one joint only
+
+
+def test_from_model_scales_the_models_velocity_limits():
+    model = SimpleNamespace(nq=2, v_max=np.array([2.0, 4.0]), q_min=np.array([-1.0, -2.0]), q_max=np.array([1.0, 2.0]))
+    lim = JointLimits.from_model(model, 3.0, velocity_scale=0.5)
+    np.testing.assert_array_equal(lim.v_max, [1.0, 2.0])
+    np.testing.assert_array_equal(lim.a_max, [3.0, 3.0])
 
 
 def _model():
@@ -216,6 +224,13 @@ def test_retarget_duration_is_checked_first():
         retarget(0.0, [0.0, 0.0], [0.0, 0.0], [0.0, 0.0], [[1.0, 1.0]], lim, duration=-1.0)
 
 
+def test_a_segment_of_exactly_the_longest_duration_is_allowed():
+    # documented: durations in (0, MAX_DURATION_S], the bound included
+    lim = JointLimits([1.0, 1.0], [2.0, 2.0])
+    new = retarget(0.0, [0.0, 0.0], [0.0, 0.0], [0.0, 0.0], [[1.0, 1.0]], lim, duration=MAX_DURATION_S)
+    assert new.t_end == MAX_DURATION_S
+
+
 # ---- planning: retarget ----------------------------------------------------------------------
 
 def test_retarget_brake_then_short_move_reaches_the_waypoint():
@@ -309,6 +324,19 @@ def test_fits_includes_the_tolerance_bound():
     # held exactly at q_min − rtol·span (span 1)
     assert fits(np.array([[-2.0, 0, 0, 0, 0, 0]]), 1.0, np.array([1.0]), np.array([1.0]),
                 np.array([-1.0]), np.array([1.0]), rtol=1.0)
+
+
+def test_fits_refuses_an_acceleration_over_the_limit():
+    c = np.array([[0.0, 0.0, 0.75, 0.0, 0.0, 0.0]])  # q̈ = 1.5 throughout
+    assert not fits(c, 1.0, np.array([10.0]), np.array([1.0]))
+
+
+def test_fits_position_tolerance_is_relative_to_the_span():
+    # span = max(|q_min|, |q_max|) = 2; with rtol = 1 positions down to −4 and up to 4 fit
+    vm, am, lo, hi = np.array([1.0]), np.array([1.0]), np.array([-2.0]), np.array([2.0])
+    for q in (-3.5, 3.5):
+        assert fits(np.array([[q, 0, 0, 0, 0, 0]]), 1.0, vm, am, lo, hi, rtol=1.0)
+    assert not fits(np.array([[4.5, 0, 0, 0, 0, 0]]), 1.0, vm, am, lo, hi, rtol=1.0)
 
 
 def test_fits_at_the_position_limits_themselves():
