@@ -109,7 +109,9 @@ _FINE = 1.25 ** (np.arange(-11, 1) / 11)  # 12 refinements of one coarse step, a
 def braking_target(q0, v0, a0, T):
     """Where a quintic from (q0, v0, a0) comes to rest in T when its velocity is the cubic
     Hermite decay v0(1−s)²(1+2s) + a0·T·s(1−s)² (s = τ/T): q0 + v0·T/2 + a0·T²/12. Its
-    speed never exceeds |v0| + |a0|·T·4/27, so a state within the limits can always stop."""
+    speed never exceeds |v0| + |a0|·T·4/27: a state near its velocity limit that still
+    accelerates outward (v0 = 0.99, a0 = 1.9 against 1 and 2) cannot stop this way, and
+    ``retarget`` says that no duration brings it to rest."""
     return q0 + v0 * T / 2.0 + a0 * T**2 / 12.0
 
 
