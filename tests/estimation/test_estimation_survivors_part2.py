@@ -14,7 +14,8 @@ import numpy as np
 import pytest
 
 from rtctl.cli import main
-from rtctl.estimation import ArxOrder, SageHusa
+from rtctl.estimation import ArxOrder, SageHusa, identify, simulate
+from rtctl.estimation.identify import identify_run
 from rtctl.estimation.printed import PrintedSageHusa
 from rtctl.telemetry import Recorder
 
@@ -82,10 +83,10 @@ def test_filter_options_are_keywords():
         SageHusa(2, 3, 0.9)
 
 
-def _recording(path, rows=40):
+def _recording(path, rows=40, meta=None):
     rng = np.random.default_rng(4)
-    rec = Recorder(path, {"t": ((), "f8"), "q": (2, "f8"), "tau": (2, "f8")}, {"rate_hz": 100, "joints": ["a", "b"]},
-                   wait_when_full=True)
+    rec = Recorder(path, {"t": ((), "f8"), "q": (2, "f8"), "tau": (2, "f8")},
+                   {"rate_hz": 100, "joints": ["a", "b"]} if meta is None else meta, wait_when_full=True)
     for k in range(rows):
         rec.row["t"][()], rec.row["q"][:], rec.row["tau"][:] = k / 100, rng.normal(size=2), rng.normal(size=2)
         rec.commit()
@@ -99,3 +100,145 @@ def test_identify_names_the_first_unknown_joint_and_exits_2(tmp_path, capsys, jo
     assert main(["identify", path, "--joints", *joints]) == 2
     err = capsys.readouterr().err
     assert f"unknown joint {named!r}" in err and "a, b" in err, err
+
+
+def test_identify_names_unnamed_joints_j1_to_jn(tmp_path):
+    """A recording without joint names: j1 … jn, as everywhere else (rtctl.telemetry.channels.joint_names);
+    ``joints=["j2"]`` is the second column."""
+    path = _recording(tmp_path / "run.msgpack", meta={"rate_hz": 100})
+    assert identify_run(path)["joints"] == ["j1", "j2"]
+    from rtctl.telemetry import read
+
+    tel = read(path)
+    got = identify_run(path, joints=["j2"])
+    expected = identify(tel["q"].reshape(tel.rows, 2)[:, 1], tel["tau"].reshape(tel.rows, 2)[:, 1])
+    assert got["joints"] == ["j2"]
+    np.testing.assert_array_equal(got["theta"], expected["theta"])
+
+
+@pytest.mark.parametrize(("option", "value"), [("--na", "0"), ("--nb", "0"), ("--d", "0"), ("--period", "0"),
+                                               ("--lam", "0"), ("--lam", "1"), ("--p0", "0"), ("--r0", "-1e-300")])
+def test_identify_command_refuses_the_boundary_values_naming_the_option(tmp_path, capsys, option, value):
+    """Orders from 1, period > 0, 0 < λ < 1, p0 > 0, r0 ≥ 0 (``rtctl identify --help``): the value
+    just outside is refused by the command's own check, exit 2 naming the option."""
+    path = _recording(tmp_path / "run.msgpack")
+    assert main(["identify", path, f"{option}={value}"]) == 2
+    err = capsys.readouterr().err
+    assert f"<command line>: {option}: " in err, err
+
+
+@pytest.mark.parametrize(("option", "value"), [("--na", "1"), ("--nb", "1"), ("--d", "1"), ("--period", "0.01"),
+                                               ("--lam", "1e-6"), ("--lam", "0.999999"), ("--p0", "1e-6"),
+                                               ("--r0", "0")])
+def test_identify_command_takes_the_values_just_inside_the_bounds(tmp_path, capsys, option, value):
+    path = _recording(tmp_path / "run.msgpack")
+    assert main(["identify", path, f"{option}={value}"]) == 0, capsys.readouterr().err
+
+
+@pytest.mark.parametrize("lam", [0.0, 1.0, -0.5, 1.5])
+def test_filter_refuses_a_forgetting_factor_outside_0_1(lam):
+    """0 < λ < 1 (module docstring)."""
+    with pytest.raises(ValueError, match="lam"):
+        SageHusa(1, 2, lam=lam)
+
+
+@pytest.mark.parametrize(("m", "p"), [(0, 2), (2, 0)])
+def test_filter_needs_a_channel_and_a_coefficient(m, p):
+    with pytest.raises(ValueError, match="at least one"):
+        SageHusa(m, p)
+
+
+def test_filter_takes_the_values_just_inside_its_bounds():
+    f = SageHusa(1, 1, lam=1e-9, R_min=1e-300, P0=0.0, Q0=0.0, R0=0.0, Q_min=0.0)
+    assert (f.m, f.p, f.lam, f.R_min) == (1, 1, 1e-9, 1e-300)
+    assert SageHusa(1, 1, lam=1.0 - 1e-9).lam == 1.0 - 1e-9
+
+
+@pytest.mark.parametrize("R_min", [0.0, -1e-12, np.inf, np.nan])
+def test_filter_refuses_a_noise_floor_that_is_not_a_finite_positive_number(R_min):
+    with pytest.raises(ValueError, match="R_min"):
+        SageHusa(1, 2, R_min=R_min)
+
+
+@pytest.mark.parametrize("name", ["P0", "Q0", "Q_min", "R0"])
+@pytest.mark.parametrize("value", [-0.5, -1e-300, -2.0])
+def test_filter_refuses_a_negative_variance(name, value):
+    with pytest.raises(ValueError, match=name):
+        SageHusa(1, 2, **{name: value})
+
+
+@pytest.mark.parametrize(("h", "y"), [([1.0, 0.5], np.nan), ([1.0, 0.5], np.inf), ([np.nan, 0.5], 1.0),
+                                      ([1.0, -np.inf], 1.0)])
+def test_update_refuses_a_non_finite_regressor_or_measurement_and_changes_nothing(h, y):
+    f = SageHusa(1, 2, adapt=("r", "R", "q", "Q"))
+    before = f.state.copy()
+    with pytest.raises(ValueError, match="finite"):
+        f.update(0, h, y)
+    np.testing.assert_array_equal(f.state, before)
+
+
+@pytest.mark.parametrize("i", [-1, 2])
+def test_update_refuses_a_channel_out_of_range(i):
+    f = SageHusa(2, 2)
+    with pytest.raises(ValueError, match=r"out of range 0\.\.1"):
+        f.update(i, [1.0, 0.5], 1.0)
+    f.update(1, [1.0, 0.5], 1.0)  # the last channel is in range
+
+
+def test_a_regressor_without_variance_moves_no_estimate():
+    """h = 0: s = hᵀPh = 0, y carries no news about θ, K = 0. By (18), (22), (23), (26), (27) with
+    K = 0, q̂(0) = 0, Q̂(0) = 0: θ̂ and P stay, q̂ = (1 − d)·0 + d·(θ̂(1|1) − θ̂(0|0)) = 0 and
+    Q̂ = d·(0 + P(1|1) − P(0|0)) = 0; only r̂ (24) learns from y."""
+    f = SageHusa(1, 3, lam=0.9, theta0=[0.5, -1.0, 2.0], P0=[1.0, 2.0, 3.0], adapt=("r", "q", "Q"))
+    theta0, P0 = f.theta.copy(), f.P.copy()
+    for y in (1.0, -2.0, 3.0):
+        f.update(0, np.zeros(3), y)
+    np.testing.assert_array_equal(f.theta, theta0)
+    np.testing.assert_array_equal(f.P, P0)
+    np.testing.assert_array_equal(f.q_hat, 0.0)
+    np.testing.assert_array_equal(f.Q_hat, 0.0)
+    assert f.r_hat[0] != 0.0
+
+
+def test_the_statistics_weight_follows_d_k_after_lambda_k_underflows():
+    """d_k = (1 − λ)/(1 − λ^(k+1)) for every k (module docstring): with λ = 0.01, λ^(k+1) < 1e-200
+    after 100 steps and d_k = 1 − λ from then on. Checked on r̂ (24) with h = 0 (so y − hᵀθ̂ = y)."""
+    lam = 0.01
+    f = SageHusa(1, 1, lam=lam, adapt=("r",))
+    rng = np.random.default_rng(2)
+    for k in range(160):
+        y = float(rng.normal())
+        r_before = float(f.r_hat[0])
+        f.update(0, [0.0], y)
+        d = (1.0 - lam) / (1.0 - lam ** (k + 1))
+        assert f.r_hat[0] == pytest.approx((1.0 - d) * r_before + d * y, rel=1e-12, abs=1e-15), k
+
+
+@pytest.mark.parametrize("y0", [None, 0.5])
+def test_simulate_by_hand(y0):
+    """ARX(1, 1, 1), θ = [a1, b0, b1] = [0.5, 1, 2], from rest (past y = y0 or 0, past u = 0):
+    y(k) = 0.5 y(k−1) + u(k−1) + 2 u(k−2) + w(k)."""
+    u, w = [1.0, 0.0, 3.0, 0.0, 0.0], [1.0, 0.0, 0.0, -1.0, 0.0]
+    yp = 0.0 if y0 is None else y0
+    y = []
+    for k in range(5):
+        prev = y[k - 1] if k >= 1 else yp
+        y.append(0.5 * prev + (u[k - 1] if k >= 1 else 0.0) + 2 * (u[k - 2] if k >= 2 else 0.0) + w[k])
+    # written out for y0 = None: 1, 0.5 + 1 = 1.5, 0.75 + 0 + 2 = 2.75, 1.375 + 3 + 0 − 1 = 3.375, 1.6875 + 0 + 6
+    if y0 is None:
+        assert y == [1.0, 1.5, 2.75, 3.375, 7.6875]
+    got = simulate(ArxOrder(1, 1, 1), [0.5, 1.0, 2.0], u, w, y0=y0)
+    np.testing.assert_allclose(got, y, rtol=1e-15)
+
+
+def test_simulate_by_hand_two_lags_and_dead_time_two():
+    """ARX(2, 1, 2): y(k) = a1 y(k−1) + a2 y(k−2) + b0 u(k−2) + b1 u(k−3) + w(k), past y = y0."""
+    a1, a2, b0, b1, y0 = 0.5, -0.25, 1.0, 3.0, 2.0
+    u, w = [1.0, 2.0, 0.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0, 0.0, 0.0]
+    y = []
+    for k in range(6):
+        yk = lambda j: y[k - j] if k - j >= 0 else y0  # noqa: E731
+        uk = lambda j: u[k - j] if k - j >= 0 else 0.0  # noqa: E731
+        y.append(a1 * yk(1) + a2 * yk(2) + b0 * uk(2) + b1 * uk(3) + w[k])
+    got = simulate(ArxOrder(2, 1, 2), [a1, a2, b0, b1], u, w, y0=y0)
+    np.testing.assert_allclose(got, y, rtol=1e-15)
