@@ -17,6 +17,7 @@ from rtctl.cli import main
 from rtctl.estimation import ArxOrder, SageHusa, identify, simulate
 from rtctl.estimation.identify import identify_run
 from rtctl.estimation.printed import PrintedSageHusa
+from rtctl.estimation.sage_husa import EPS, PRED_ERR, state_size
 from rtctl.telemetry import Recorder
 
 
@@ -242,3 +243,51 @@ def test_simulate_by_hand_two_lags_and_dead_time_two():
         y.append(a1 * yk(1) + a2 * yk(2) + b0 * uk(2) + b1 * uk(3) + w[k])
     got = simulate(ArxOrder(2, 1, 2), [a1, a2, b0, b1], u, w, y0=y0)
     np.testing.assert_allclose(got, y, rtol=1e-15)
+
+
+@pytest.mark.parametrize(("m", "p"), [(1, 1), (2, 3), (3, 5)])
+def test_state_is_exactly_the_documented_views_end_to_end(m, p):
+    """θ̂ (p, m), P (m, p, p), drift (3, p, m), signals (4, m), fade (m): views of one contiguous
+    ``state`` in that order (module docstring), nothing before, between or after them."""
+    sizes = [p * m, m * p * p, 3 * p * m, 4 * m, m]
+    assert state_size(m, p) == sum(sizes)
+    f = SageHusa(m, p)
+    assert f.state.size == sum(sizes)
+    views = (f.theta, f.P, f.drift, f.signals, f.fade)
+    assert [v.shape for v in views] == [(p, m), (m, p, p), (3, p, m), (4, m), (m,)]
+    start = 0
+    for v, n in zip(views, sizes):
+        assert np.shares_memory(v, f.state) and v.size == n
+        assert v.__array_interface__["data"][0] == f.state.__array_interface__["data"][0] + 8 * start
+        start += n
+    assert start == f.state.size
+
+
+def test_no_innovation_before_the_first_measurement_nor_after_reset():
+    """ε (20) and y − hᵀθ̂(k+1|k) need a measurement: 0 in a new filter and again after reset(),
+    which restores every initial value."""
+    f = SageHusa(2, 3, r0=[0.1, 0.2], R0=[0.3, 0.4], adapt=("r", "R", "q", "Q"))
+    fresh = f.state.copy()
+    np.testing.assert_array_equal(f.signals[EPS], 0.0)
+    np.testing.assert_array_equal(f.signals[PRED_ERR], 0.0)
+    np.testing.assert_array_equal(f.r_hat, [0.1, 0.2])
+    np.testing.assert_array_equal(f.R_hat, [0.3, 0.4])
+    for i in range(2):
+        f.update(i, [1.0, -0.5, 0.25], 2.0)
+    assert np.all(f.signals[EPS] != 0.0)
+    f.reset()
+    np.testing.assert_array_equal(f.state, fresh)
+    np.testing.assert_array_equal(f.signals[EPS], 0.0)
+
+
+@pytest.mark.parametrize(("y_shape", "u_shape"), [((20, 2), (20, 3)), ((20, 2), (19, 2)), ((20, 2), (20,)),
+                                                  ((20,), (20, 2)), ((20, 1, 1), (20, 1, 1)), ((1, 2), (1, 2))])
+def test_identify_refuses_y_and_u_of_different_shapes_or_fewer_than_2_samples(y_shape, u_shape):
+    rng = np.random.default_rng(0)
+    with pytest.raises(ValueError, match="same shape"):
+        identify(rng.normal(size=y_shape), rng.normal(size=u_shape))
+
+
+def test_identify_takes_two_samples():
+    got = identify([0.0, 1.0], [1.0, 0.0])
+    assert got["eps"].shape == (1, 1)
