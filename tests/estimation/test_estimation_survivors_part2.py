@@ -291,3 +291,17 @@ def test_identify_refuses_y_and_u_of_different_shapes_or_fewer_than_2_samples(y_
 def test_identify_takes_two_samples():
     got = identify([0.0, 1.0], [1.0, 0.0])
     assert got["eps"].shape == (1, 1)
+
+
+def test_identify_command_refuses_a_recording_with_a_non_finite_position_exit_2(tmp_path, capsys):
+    """identify's ValueError ("y and u must be finite") is a refusal of the input, not a bug: exit 2
+    with the reason (the CLI's exit codes), not a traceback."""
+    path = tmp_path / "run.msgpack"
+    rec = Recorder(path, {"t": ((), "f8"), "q": (1, "f8"), "tau": (1, "f8")}, {"rate_hz": 100, "joints": ["a"]},
+                   wait_when_full=True)
+    for k in range(10):
+        rec.row["t"][()], rec.row["q"][:], rec.row["tau"][:] = k / 100, np.nan if k == 5 else 0.1 * k, 1.0
+        rec.commit()
+    rec.close()
+    assert main(["identify", str(path)]) == 2
+    assert "finite" in capsys.readouterr().err
