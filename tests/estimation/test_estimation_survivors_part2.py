@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from rtctl.cli import main
+from rtctl.errors import RtctlError
 from rtctl.estimation import ArxOrder, SageHusa, identify, simulate
 from rtctl.estimation.identify import identify_run
 from rtctl.estimation.printed import PrintedSageHusa
@@ -305,3 +306,97 @@ def test_identify_command_refuses_a_recording_with_a_non_finite_position_exit_2(
     rec.close()
     assert main(["identify", str(path)]) == 2
     assert "finite" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("bad", ["y", "u"])
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_identify_refuses_a_non_finite_y_or_u(bad, value):
+    y, u = np.linspace(0.0, 1.0, 10), np.ones(10)
+    (y if bad == "y" else u)[4] = value
+    with pytest.raises(ValueError, match="finite"):
+        identify(y, u)
+
+
+def test_identify_run_reads_every_recorded_tick_without_a_period(tmp_path):
+    """Default: every recorded tick (identify_run's docstring), the fit of all rows."""
+    path = _recording(tmp_path / "run.msgpack", rows=30)
+    from rtctl.telemetry import read
+
+    tel = read(path)
+    got = identify_run(path)
+    assert got["samples"] == got["rows"] == 30 and got["period"] == pytest.approx(0.01)
+    expected = identify(tel["q"].reshape(30, 2), tel["tau"].reshape(30, 2))
+    np.testing.assert_array_equal(got["theta"], expected["theta"])
+
+
+def test_identify_run_refuses_a_period_that_leaves_one_sample(tmp_path):
+    """40 rows at 100 Hz every 0.5 s (50 rows): one sample, at least 2 needed."""
+    path = _recording(tmp_path / "run.msgpack", rows=40)
+    with pytest.raises(RtctlError, match="at least 2 needed"):
+        identify_run(path, period=0.5)
+
+
+@pytest.mark.parametrize("missing", ["q", "tau"])
+def test_identify_command_names_a_missing_column_exit_2(tmp_path, capsys, missing):
+    schema = {"t": ((), "f8"), "q": (1, "f8"), "tau": (1, "f8")}
+    del schema[missing]
+    rec = Recorder(tmp_path / "run.msgpack", schema, {"rate_hz": 100, "joints": ["a"]}, wait_when_full=True)
+    for k in range(5):
+        for col in schema:
+            rec.row[col][...] = k
+        rec.commit()
+    rec.close()
+    assert main(["identify", str(tmp_path / "run.msgpack")]) == 2
+    assert f"no column {missing!r}" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["theta0", "P0", "q0", "Q0", "Q_min", "r0", "R0"])
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_filter_refuses_non_finite_initial_values(name, value):
+    with pytest.raises(ValueError, match=f"{name} must be finite"):
+        SageHusa(1, 2, **{name: value})
+
+
+@pytest.mark.parametrize("name", ["na", "nb", "d"])
+def test_arx_order_refuses_zero(name):
+    """Orders from 1 (docs/arma_kalman.md; d ≥ 1 the dead time)."""
+    with pytest.raises(ValueError, match=name):
+        ArxOrder(**{name: 0})
+
+
+def test_filter_defaults_are_the_documented_ones():
+    """The signature's defaults (the API reference): λ = 0.98, θ̂(0) = 0, P(0) = I, r̂(0) = 0,
+    R̂(0) = 10⁻⁶ (also ``rtctl identify --r0``'s), q̂(0) = Q̂(0) = 0, r̂ and R̂ adapted, R_min = 10⁻¹²,
+    the Sage–Husa noise form."""
+    f = SageHusa(2, 3)
+    assert f.lam == 0.98 and f.R_min == 1e-12 and f.noise_form == "sage_husa"
+    np.testing.assert_array_equal(f.theta, 0.0)
+    np.testing.assert_array_equal(f.P, np.broadcast_to(np.eye(3), (2, 3, 3)))
+    np.testing.assert_array_equal(f.r_hat, 0.0)
+    np.testing.assert_array_equal(f.R_hat, 1e-6)
+    np.testing.assert_array_equal(f.q_hat, 0.0)
+    np.testing.assert_array_equal(f.Q_hat, 0.0)
+    np.testing.assert_array_equal(f.Q_min, 0.0)
+    assert f.switches[:4].astype(bool).tolist() == [True, True, False, False]  # r̂, R̂ on; q̂, Q̂ off
+
+
+def test_no_news_along_h_when_s_is_exactly_zero_even_if_Ph_is_not():
+    """s = hᵀP(k+1|k)h ≤ 0: "y carries no news about θ" (sage_husa_step): K = 0, θ̂ and P stay.
+    P = [[1, 1], [1, 0]] (numerically indefinite, as rounding can leave it), h = (0, 1): s = 0
+    while Ph = (1, 0)."""
+    f = SageHusa(1, 2, R0=0.5, adapt=())
+    f.P[0] = [[1.0, 1.0], [1.0, 0.0]]
+    P_before = f.P.copy()
+    f.update(0, [0.0, 1.0], 3.0)
+    np.testing.assert_array_equal(f.theta, 0.0)
+    np.testing.assert_array_equal(f.P, P_before)
+
+
+@pytest.mark.parametrize("noise_form", ["sage_husa", "residual"])
+def test_R_sample_is_eps_squared_exactly_when_s_is_zero(noise_form):
+    """h = 0 (s = 0, K = 0): (25) ε² − 0 and (25′) (y − hᵀθ̂(1|1) − r̂)² + 0 are both ε²; with
+    d_0 = 1, R̂(1) = ε² = 1 for y = 1, r̂ = 0 — exactly (R̂(0) = 49: 49·(1/49) ≠ 1 in floating point,
+    so a detour through the gain shows)."""
+    f = SageHusa(1, 2, R0=49.0, adapt=("R",), noise_form=noise_form)
+    f.update(0, [0.0, 0.0], 1.0)
+    assert f.R_hat[0] == 1.0
