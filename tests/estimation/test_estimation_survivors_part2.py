@@ -18,7 +18,7 @@ from rtctl.errors import RtctlError
 from rtctl.estimation import ArxOrder, SageHusa, identify, simulate
 from rtctl.estimation.identify import identify_run
 from rtctl.estimation.printed import PrintedSageHusa
-from rtctl.estimation.sage_husa import EPS, PRED_ERR, state_size
+from rtctl.estimation.sage_husa import EPS, PRED_ERR, RCOV_HAT, R_HAT, first_nonfinite, state_size
 from rtctl.telemetry import Recorder
 
 
@@ -400,3 +400,38 @@ def test_R_sample_is_eps_squared_exactly_when_s_is_zero(noise_form):
     f = SageHusa(1, 2, R0=49.0, adapt=("R",), noise_form=noise_form)
     f.update(0, [0.0, 0.0], 1.0)
     assert f.R_hat[0] == 1.0
+
+
+def test_printed_reference_options_are_keywords():
+    f = PrintedSageHusa(p=1, lam=0.5, theta0=[0.0], P0=[1.0], r0=0.0, R0=1.0, Q0=[0.0])
+    assert f.lam == 0.5
+    with pytest.raises(TypeError):
+        PrintedSageHusa(1, 0.5, [0.0], [1.0], 0.0, 1.0, [0.0])
+
+
+def test_identify_command_says_how_many_samples_of_how_many_rows(tmp_path, capsys):
+    """40 rows at 100 Hz, --period 0.02: every 2nd row, 20 samples (docs/operations.md: identify
+    says how many rows it read)."""
+    path = _recording(tmp_path / "run.msgpack", rows=40)
+    assert main(["identify", path, "--period", "0.02"]) == 0
+    out = capsys.readouterr().out
+    assert "sample time 0.02 s; 20 samples of 40 recorded rows" in out, out
+
+
+def test_first_nonfinite_flags_finite_statistics_whose_sum_overflows():
+    """"finite values whose sum overflowed (≈ 1e308: diverged all the same)": r̂ = R̂ = 1e308."""
+    f = SageHusa(1, 2)
+    f.signals[R_HAT, 0] = f.signals[RCOV_HAT, 0] = 1e308
+    assert first_nonfinite(0, f.theta, f.P, f.q_hat, f.Q_hat, f.signals) >= 0
+
+
+def test_identify_first_sample_only_fills_the_histories():
+    """identify's docstring: histories start from y(0) and u = 0, the first sample only fills them.
+    ARX(1, 1, 1), N = 2: one filter step, h(1) = [y(0), u(0), u(−1) = 0], measurement y(1); from
+    θ̂(0) = 0, r̂(0) = 0 the innovation is ε = y(1)."""
+    y, u = [0.5, 2.0], [3.0, -1.0]
+    got = identify(y, u, ArxOrder(1, 1, 1))
+    assert got["eps"].tolist() == [[2.0]] and got["prediction_error"].tolist() == [[2.0]]
+    f = SageHusa(1, 3, theta0=0.0, P0=1e3)
+    f.update(0, [0.5, 3.0, 0.0], 2.0)
+    np.testing.assert_array_equal(got["theta"], f.theta.T)
