@@ -220,7 +220,7 @@ def test_the_statistics_weight_follows_d_k_after_lambda_k_underflows():
 def test_simulate_by_hand(y0):
     """ARX(1, 1, 1), θ = [a1, b0, b1] = [0.5, 1, 2], from rest (past y = y0 or 0, past u = 0):
     y(k) = 0.5 y(k−1) + u(k−1) + 2 u(k−2) + w(k)."""
-    u, w = [1.0, 0.0, 3.0, 0.0, 0.0], [1.0, 0.0, 0.0, -1.0, 0.0]
+    u, w = [1.0, 0.0, 3.0, 0.0, 2.0], [1.0, 0.0, 0.0, -1.0, 0.0]  # u(4) acts after the end
     yp = 0.0 if y0 is None else y0
     y = []
     for k in range(5):
@@ -236,7 +236,7 @@ def test_simulate_by_hand(y0):
 def test_simulate_by_hand_two_lags_and_dead_time_two():
     """ARX(2, 1, 2): y(k) = a1 y(k−1) + a2 y(k−2) + b0 u(k−2) + b1 u(k−3) + w(k), past y = y0."""
     a1, a2, b0, b1, y0 = 0.5, -0.25, 1.0, 3.0, 2.0
-    u, w = [1.0, 2.0, 0.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0, 0.0, 0.0]
+    u, w = [1.0, 2.0, 0.0, 0.0, 0.0, 5.0], [0.0, 1.0, 0.0, 0.0, 0.0, 0.0]
     y = []
     for k in range(6):
         yk = lambda j: y[k - j] if k - j >= 0 else y0  # noqa: E731
