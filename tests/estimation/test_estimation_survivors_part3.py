@@ -7,6 +7,7 @@ import pytest
 
 from rtctl.estimation import identify
 from rtctl.estimation.identify import identify_run
+from rtctl.errors import TelemetryError
 from rtctl.telemetry import Recorder, read
 
 
@@ -35,3 +36,17 @@ def test_a_period_of_three_ticks_reads_every_third_row(tmp_path):
     path = _recording(tmp_path / "run.msgpack")
     got = identify_run(path, period=0.03)
     assert got["samples"] == 10 and got["period"] == pytest.approx(0.03)
+
+
+def test_a_period_shorter_than_a_tick_reads_every_tick(tmp_path):
+    """Nothing finer than the recording exists: 0.004 s at 100 Hz is every row."""
+    path = _recording(tmp_path / "run.msgpack")
+    got = identify_run(path, period=0.004)
+    assert got["samples"] == 30
+
+
+def test_a_single_row_is_nothing_to_identify(tmp_path):
+    """Telemetry's own refusal (require_rows: "nothing to identify", exit 2) for fewer than 2 rows."""
+    path = _recording(tmp_path / "run.msgpack", rows=1)
+    with pytest.raises(TelemetryError, match="nothing to identify: 1 rows recorded"):
+        identify_run(path)
