@@ -120,3 +120,11 @@ def test_first_nonfinite_flags_any_two_estimates_whose_sum_overflows(a, b):
         array, index = where[name]
         array[index] = 1e308
     assert first_nonfinite(0, f.theta, f.P, f.q_hat, f.Q_hat, f.signals) >= 0
+
+
+@pytest.mark.parametrize("value", [True, 2.0])
+@pytest.mark.parametrize("name", ["na", "nb", "d"])
+def test_arx_order_refuses_a_bool_or_a_float(name, value):
+    """Orders are integers ("must be an integer from 1 to …"): True and 2.0 are not."""
+    with pytest.raises(ValueError, match=name):
+        ArxOrder(**{name: value})
