@@ -115,18 +115,20 @@ class VmStall(Exception):
 
 def stall_in(summary: dict) -> str | None:
     """What in the run's own record shows a stall of this (shared, virtual) machine: an
-    overrun of the loop, a wake-up later than half a period, or replies the drives' process
-    did not send in time. None when the run was quiet."""
+    overrun of the loop, a wake-up later than half a period, or replies the simulator's process
+    did not send in time (the CAN drives' missing replies, the leg board's late ones). None when
+    the run was quiet."""
     timing = summary["timing"]
     late_us = (timing.get("wake_lateness_us") or {}).get("max") or 0.0
-    missing = sum((d.get("counters") or {}).get("missing_replies", 0) for d in summary.get("devices", {}).values())
+    devices = summary.get("devices", {}).values()
+    missing = sum((d.get("counters") or {}).get("missing_replies", 0) + d.get("late_replies", 0) for d in devices)
     signs = []
     if timing["overruns"]:
         signs.append(f"{timing['overruns']} overrun(s)")
     if late_us > timing["period_us"] / 2:
         signs.append(f"a wake-up {late_us:.0f} µs late")
     if missing:
-        signs.append(f"{missing} missing repl(ies)")
+        signs.append(f"{missing} missing or late repl(ies)")
     return ", ".join(signs) or None
 
 
