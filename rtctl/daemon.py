@@ -9,7 +9,9 @@ Order of events — every step that can fail does so before the next touches any
 3. configure the devices (exit 4 if one cannot be brought up, after closing the others) and
    read the initial state; wait for the kernels, logging progress, and load them; apply the
    real-time knobs once the compile workers are gone (exit 5 with ``--enforce-rt`` if one
-   cannot be applied); start the trajectory from the state; activate the devices;
+   cannot be applied); start the trajectory from the state; activate the devices. Steps 2–3
+   are :mod:`rtctl.start_up`: the socket serves ``stop`` and ``estop`` meanwhile (from a
+   helper thread, gone before the loop), and either ends the start before the next step;
 4. the loop, in the main thread, on absolute deadlines, until the duration ends, ``stop``,
    SIGTERM or SIGINT (exit 0) or a safe stop after a fault (exit 3). An operator's
    ``estop`` stops the robot (damping, then drives off) but not the daemon: ``status``
@@ -28,19 +30,18 @@ import signal
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
 import structlog
 
-from rtctl import run_records
+from rtctl import run_records, start_up
 from rtctl.config import load_config, realtime_factor
 from rtctl.logs import written_in_background
 from rtctl.outputs import output_path
 from rtctl.control_socket import ControlServer
+from rtctl.control_socket.while_starting import ServedWhileStarting
 from rtctl.errors import ConfigError, HardwareError, RtctlError, TrajectoryError, exit_code_for
 from rtctl.cell import shared as shared_zones
 from rtctl.guard import run as guarded
 from rtctl.progress import Progress, interval_for
-from rtctl.hal import JointCommand, Status
 from rtctl.model.dynamics import gravity as gravity_of
 from rtctl.moves.pending import Moves
 from rtctl.live import LiveChanges
@@ -49,8 +50,8 @@ from rtctl.runtime import build
 from rtctl.safety import SafetyStage
 from rtctl.telemetry import live_view
 from rtctl.tick import Tick
-from rtctl.timing import DAEMON_PHASES, SERVE, KnobStatus, MonotonicClock, Ticker, apply_rt, rt_budget
-from rtctl.trajectory import JointLimits, hold, through_waypoints
+from rtctl.timing import DAEMON_PHASES, SERVE, MonotonicClock, Ticker
+from rtctl.trajectory import JointLimits, through_waypoints
 from rtctl.warmup import Precompile
 
 EXIT_OK, EXIT_FAULT, EXIT_HARDWARE = 0, 3, 4
@@ -102,6 +103,7 @@ class Daemon:
         self.stop_reason: str | None = None
         self.exit_code = EXIT_OK
         self.estopped = False  # by the operator: drives off, the daemon stays up until `reset` or `stop`
+        self.running = False  # the loop has started (before it, a stop or estop ends the start)
         self.summary: dict | None = None  # written by _finish
         self.summary_line = True  # log the summary as one event (the JSON log's last line)
         self.progress_s = 0.0  # a "running" line every progress_s s of wall time (0: none)
@@ -150,13 +152,13 @@ class Daemon:
             if self.cfg.live is not None:
                 self.live_view = live_view.LiveView.start(self.recorder, self.cfg.live)
                 log.info("live view", url=self.live_view.url)
-            compiling = Precompile(self._warm_up_groups()).start()
+            compiling = Precompile(start_up.warm_up_groups(self)).start(loading=ServedWhileStarting(server))
             self.moves.start()  # the move planner: a process of its own, like the compile workers
             if compiling.loaded == len(compiling.groups):  # nothing to compile: it loads its kernels now
                 self.moves.warm()
             if self.log_in_background:  # (a thread: only after the forks) a slow log reader must not stall a tick
                 logs.enter_context(written_in_background())
-            if self._bring_up(compiling, server):
+            if start_up.bring_up(self, compiling, server):
                 self._loop(server)
             self._fault_if_latched()
         except HardwareError as e:
@@ -191,80 +193,6 @@ class Daemon:
             log.error("fault: safe stop", reason="the run ended with faults latched: " + "; ".join(pending[:3]),
                       stop_reason=self.stop_reason)
 
-    def _apply_rt(self) -> None:
-        """The real-time knobs, once the compile workers are gone (a loop at SCHED_FIFO would
-        take a core from them) and before a drive is enabled (exit 5 with ``--enforce-rt``)."""
-        rt, lock_step = self._rt_settings()
-        for report in apply_rt(rt, enforce=self.args.enforce_rt):
-            if report.knob == "sched_fifo" and lock_step:
-                log.warning("rt knob", knob="sched_fifo", status="off",
-                            detail="lock-step (realtime_factor = 0) never sleeps: SCHED_FIFO would starve its core")
-                continue
-            log.info("rt knob", **report.as_dict())
-            if report.knob == "sched_fifo" and report.status is KnobStatus.APPLIED:
-                self.ticker.busy.limit = rt_budget()  # Linux stops a FIFO thread over it
-
-    def _rt_settings(self):
-        """(The knobs to apply, whether SCHED_FIFO was dropped): ``--enforce-rt`` asks for the
-        full set (what is not configured gets a default); a lock-step run never sleeps, so it
-        must not run SCHED_FIFO (it would starve its core) — its priority knob is left alone."""
-        rt = self.cfg.loop.rt
-        if self.args.enforce_rt:
-            rt = replace(rt, priority=rt.priority or 80, mlockall=True, timer_slack_ns=rt.timer_slack_ns or 1,
-                         gc_freeze=True)
-        if self.cfg.loop.realtime_factor == 0 and rt.priority:
-            return replace(rt, priority=0), True
-        return rt, False
-
-    def _bring_up(self, compiling: Precompile, server: ControlServer) -> bool:
-        """Configure the devices, prepare the kernels, plan, activate: True when started, False
-        when a stop or an e-stop came while the kernels compiled (the drives were never enabled:
-        the socket serves those two meanwhile, the other requests wait for the loop)."""
-        for dev in self.rt.all_devices:
-            try:
-                dev.configure()
-            except RtctlError:
-                raise
-            except Exception as e:
-                raise HardwareError(f"{dev.name}: configure failed: {type(e).__name__}: {e}") from e
-        state = self.rt.state
-        for dev in self.rt.io.values():
-            if dev.read(0.0) != Status.OK:
-                raise HardwareError(f"{dev.name}: no valid state after configure ({dev.last_error})")
-        for i, dev in enumerate(self.rt.devices):
-            if dev.read(0.0) != Status.OK:
-                raise HardwareError(f"{dev.name}: no valid state after configure ({dev.last_error})")
-            idx = self.rt.device_joints[i]
-            np.put(state.position, idx, dev.state.position)
-            np.put(state.velocity, idx, dev.state.velocity)
-        guarded.check_start(self.cfg, state.position)
-        server.urgent_only = True
-        started = compiling.wait(stop=lambda: self.stop_reason is not None or self.estopped, serve=server.poll)
-        server.urgent_only = False
-        if not started:
-            if self.estopped:
-                self.stop_reason = "operator e-stop before start: no drive was enabled"
-            log.info("stopped before start", reason=self.stop_reason)
-            return False
-        compiling.finish()
-        if self.recorder is not None:  # (started long before: it is normally waiting already)
-            self.recorder.wait_ready()
-        self._apply_rt()
-        self.moves.warm()  # it loads the planners' kernels from the cache just filled
-        try:
-            self.hand_over(self._initial_trajectory(state.position.copy()), 0.0)
-        except TrajectoryError as e:  # the devices report a start the limits do not allow
-            raise HardwareError(f"cannot start the trajectory from the measured position: {e}") from None
-        for dev in self.rt.all_devices:
-            try:
-                dev.activate()
-            except Exception as e:
-                raise HardwareError(f"{dev.name}: activate failed: {type(e).__name__}: {e}") from e
-        log.info("started", config=str(self.cfg.file), robot=self.model.name, rate_hz=self.cfg.loop.rate_hz,
-                 realtime_factor=self.cfg.loop.realtime_factor, devices=[d.name for d in self.rt.all_devices],
-                 controllers=[c.name for c in self.rt.controllers])
-        return True
-
     def hand_over(self, trajectory, t: float) -> None:
         """Run ``trajectory`` from time ``t`` with fresh controllers (at the start, and after a
         ``reset``); the devices are the caller's to activate."""
@@ -276,33 +204,6 @@ class Daemon:
         for c in self.rt.configured:  # (the inactive ones too: a switch starts them from here)
             c.reset(self.rt.state)
 
-    def _warm_up_groups(self) -> list:
-        """Every compiled path of this run, as groups that run it once on throwaway outputs (so
-        that no tick pays for loading or compiling a numba kernel), in the order workers take
-        them (:class:`~rtctl.warmup.Precompile`): a simulated plant first (it compiles the whole
-        dynamics library the controllers and the safety stage share), then the guard, the
-        controllers, the safety stage."""
-        scratch = JointCommand(self.model.nq)
-        devices = [(f"device {d.name}", d.warm_up) for d in self.rt.all_devices if hasattr(d, "warm_up")]
-        guard = [("guard", lambda: guarded.warm_up(self.cfg, self.guard))] if self.guard is not None else []
-        guard += [("shared zones", self.zones.warm_up)] if self.zones is not None else []
-        controllers = [(f"controller {c.name}", lambda c=c: c.update(0.0, self.rt.state, self.rt.ref, scratch))
-                       for c in self.rt.configured]  # (an inactive one compiled now, not at its switch)
-        return devices + guard + controllers + [("safety stage", lambda: self._warm_up_safety(scratch)),
-                                                ("tick", self.tick.warm_up)]
-
-    def _warm_up_safety(self, scratch) -> None:
-        """The safety stage's normal and fault paths (hold with gravity, damped stop): the first
-        real fault must not stall the loop longer than the drives' 20 ms watchdog."""
-        spare = SafetyStage.from_model(self.model, self.cfg.safety, device_joints=self.rt.device_joints,
-                                       gravity=self.safety.gravity)
-        spare.log_events = False
-        statuses = np.zeros(len(self.rt.devices), dtype=np.int64)
-        spare.check(0.0, 0, self.rt.state, statuses, scratch, True)
-        spare.check(0.0, 1, self.rt.state, statuses, scratch, False, "warm-up")  # → hold
-        spare.estop("warm-up")
-        spare.check(0.0, 2, self.rt.state, statuses, scratch, True)  # → damped stop
-
     def _check_trajectory(self) -> None:
         """Plan the configured trajectory from its first waypoint now: the measured start is
         known only once the devices are up, and a plan the limits refuse must exit 2 before."""
@@ -313,19 +214,11 @@ class Daemon:
             except TrajectoryError as e:
                 raise ConfigError(self.cfg.file, "trajectory", f"waypoints the limits allow to plan ({e})") from None
 
-    def _initial_trajectory(self, q0):
-        tcfg = self.cfg.trajectory
-        if tcfg is None:
-            return hold(q0)
-        if self.cfg.guard is not None:
-            return guarded.initial_trajectory(self.cfg, q0, self.limits)
-        return through_waypoints(tcfg.waypoints, self.limits, start=q0, smooth=tcfg.smooth, dwell=tcfg.dwell,
-                                 durations=tcfg.durations)
-
     def _loop(self, server) -> None:
         ticker, tick, safety, moves = self.ticker, self.tick, self.safety, self.moves
         duration = self.args.duration
         stopping_since = None
+        self.running = True
         ticker.start()
         if self.zones is not None:  # (leases arrive as CLOCK_MONOTONIC instants)
             self.zones.tick0_ns = ticker.deadline_ns(0)

@@ -70,7 +70,8 @@ class Operator:
         if not d.estopped and d.stop_reason is None:
             d.estopped = True
             log.warning("e-stop", detail="damping, then drives off; `rtctl reset` re-enables them, "
-                                         "`rtctl stop` ends the daemon")
+                                         "`rtctl stop` ends the daemon" if d.running else
+                                         "before the first tick: the daemon ends with every drive off")
         return {"ok": True, "t": d.ticker.sim_time_s}  # latched in this tick, acted on at the next
 
     def reset(self) -> dict:

@@ -21,6 +21,7 @@ compiles what is missing (saying so every second) and raises any real error itse
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import select
@@ -34,7 +35,7 @@ import structlog
 log = structlog.get_logger("rtctl.warmup")
 
 HEARTBEAT_S = 1.0  # the longest the daemon stays silent while kernels load or compile
-SERVE_EVERY_S = 0.01  # how often wait() serves the control socket
+STOP_CHECK_S = 0.01  # how often wait() asks whether to stop
 NOTE = "the first run after an install or update compiles them; later runs load them from the cache"
 
 Group = tuple[str, Callable[[], object]]
@@ -71,12 +72,16 @@ class Precompile:
         self.started = self.last_line = time.monotonic()  # when it last logged
         self._beat: tuple[threading.Thread, threading.Event] | None = None
 
-    def start(self) -> "Precompile":
-        self._start_heartbeat()
-        try:
-            self._probe()
-        finally:
-            self._stop_heartbeat()
+    def start(self, loading: contextlib.AbstractContextManager | None = None) -> "Precompile":
+        """Load what is cached here, then fork the workers for the rest. ``loading`` is
+        entered while the kernels load and left before any fork (the daemon serves its socket
+        from a thread meanwhile: a fork must not copy a thread's locks)."""
+        with loading or contextlib.nullcontext():
+            self._start_heartbeat()
+            try:
+                self._probe()
+            finally:
+                self._stop_heartbeat()
         if self.loaded == len(self.groups):
             log.info("kernels loaded", seconds=round(time.monotonic() - self.started, 2), compiled=0)
             return self
@@ -122,19 +127,15 @@ class Precompile:
         """Hand ``worker`` the next group, or tell it to leave."""
         worker.give(self.queue.pop(0) if self.queue else None)
 
-    def wait(self, stop: Callable[[], bool] = lambda: False, serve: Callable[[], object] | None = None) -> bool:
+    def wait(self, stop: Callable[[], bool] = lambda: False) -> bool:
         """Until every worker has finished (True) or ``stop()`` (False, the workers stopped),
-        logging each group as it is ready; ``serve()`` every ``SERVE_EVERY_S`` meanwhile (the
-        daemon's control socket: a ``stop`` is answered in milliseconds, not after the compile)."""
-        timeout = HEARTBEAT_S / 4 if serve is None else SERVE_EVERY_S
+        logging each group as it is ready; ``stop()`` is asked every ``STOP_CHECK_S``."""
         try:
             while self.workers:
-                if serve is not None:
-                    serve()
                 if stop():
                     self.abort()
                     return False
-                ready, _, _ = select.select(list(self.workers), [], [], timeout)
+                ready, _, _ = select.select(list(self.workers), [], [], STOP_CHECK_S)
                 for fd in ready:
                     self._read(self.workers[fd])
         except BaseException:

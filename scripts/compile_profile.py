@@ -12,11 +12,12 @@ import types
 from numba.core.event import install_recorder
 
 from rtctl.daemon import prepare
+from rtctl.start_up import warm_up_groups
 
 
 def main(config: str) -> None:
     daemon = prepare(types.SimpleNamespace(config=config, sim=None, realtime_factor=None))
-    for name, fn in daemon._warm_up_groups():
+    for name, fn in warm_up_groups(daemon):
         t0 = time.perf_counter()
         with install_recorder("numba:compile") as recorder:
             fn()
