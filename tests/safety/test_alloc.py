@@ -12,8 +12,9 @@ def _peak_and_growth(fn, calls=3000):
 
 
 def test_check_allocates_nothing():
-    # many joints: a temporary array (≥ 8 n bytes) would stand out from the argument tuples
-    # numba's dispatcher builds and frees on every call
+    # many joints: a temporary array (≥ 8 n bytes), or a fault scan on a tick without a fault
+    # (np.flatnonzero's empty index array and its bookkeeping: ~630 bytes), stands out from the
+    # argument tuples numba's dispatcher builds and frees on every call (48–96 bytes measured)
     n = 200
     stage = SafetyStage(np.full(n, -2.0), np.full(n, 2.0), np.full(n, 3.0), np.full(n, 10.0), position_margin=0.1,
                         following_error=0.5)
@@ -27,8 +28,8 @@ def test_check_allocates_nothing():
         command.mode = mode
         growth, peak = _peak_and_growth(lambda: stage.check(0.0, 0, state, statuses, command, True, None, reference))
         assert stage.check(0.0, 0, state, statuses, command, True, None, reference) == Verdict.OK
-        assert growth <= 64 and peak < 8 * n, (mode, growth, peak)
+        assert growth <= 64 and peak < 2 * n, (mode, growth, peak)
     stage.check(0.0, 0, state, statuses, command, False, "boom")
     growth, peak = _peak_and_growth(lambda: stage.check(0.0, 0, state, statuses, command))
     assert stage.check(0.0, 0, state, statuses, command) == Verdict.FALLBACK
-    assert growth <= 64 and peak < 8 * n, (growth, peak)
+    assert growth <= 64 and peak < 2 * n, (growth, peak)
