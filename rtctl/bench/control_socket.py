@@ -9,7 +9,9 @@ stalest connection, read, answer the framing error): the most a poll does.
 Then the operator's side: the wall time of ``rtctl status`` and ``rtctl estop`` as a user runs
 them (a new process each, 20 times, against a server polled every millisecond as the loop
 does), and of ``rtctl estop`` when no daemon listens — what an e-stop costs before it reaches
-the loop.
+the loop. Last, a ``stop`` sent while a daemon starts (``rtctl run`` of the C* job, its kernels
+cached): the round trip of the request, sent at a different moment of the start each time —
+loading kernels, configuring, activating — and whether the start ended before the loop.
 """
 from __future__ import annotations
 
@@ -21,10 +23,12 @@ import tempfile
 import threading
 import time
 
+from pathlib import Path
+
 import numpy as np
 
 from rtctl.bench import percentiles_us
-from rtctl.control_socket import ControlServer
+from rtctl.control_socket import ControlServer, request
 from rtctl.control_socket.server import ACCEPTS_PER_POLL
 from rtctl.control_socket.framing import encode
 
@@ -60,8 +64,32 @@ def bench_control_socket(polls: int = 20000, requests: int = 500) -> dict:
             clients = _time_clients(server)
         finally:
             server.close()
+        starting = _time_stops_while_starting(directory)
     return {"idle": idle, "idle_client": connected, "status_request": percentiles_us(ns), "storm": storm,
-            "client_wall_ms": clients}
+            "client_wall_ms": clients, "stop_while_starting": starting}
+
+
+def _time_stops_while_starting(directory: str, runs: int = 8, config: str = "puma560_cstar_sim.toml") -> dict:
+    path = Path(__file__).resolve().parents[2] / "configs" / config
+    ms, started = [], 0
+    for k in range(runs):
+        sock = os.path.join(directory, f"start{k}.sock")
+        proc = subprocess.Popen([sys.executable, "-m", "rtctl.cli", "run", str(path), "--socket", sock, "--duration",
+                                 "5", "--log-format", "json"], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        try:
+            while not os.path.exists(sock) and proc.poll() is None:
+                time.sleep(0.001)
+            time.sleep(0.1 * k)  # a later moment of the start each time (it takes about a second)
+            a = time.perf_counter()
+            request(sock, "stop", timeout=10.0)
+            ms.append((time.perf_counter() - a) * 1e3)
+            out, _ = proc.communicate(timeout=120)
+            started += '"started"' in out
+        finally:
+            proc.kill()
+            proc.wait()
+    return {"median_ms": float(np.median(ms)), "p90_ms": float(np.percentile(ms, 90)), "max_ms": max(ms),
+            "runs": runs, "loop_started": started}
 
 
 def _time_clients(server: ControlServer, runs: int = 20) -> dict:
@@ -120,4 +148,7 @@ def format_table(result: dict) -> str:
     for name, c in result["client_wall_ms"].items():
         lines.append(f"{name:<34}{c['median_ms']:>9.1f}{c['p90_ms']:>9.1f}{c['max_ms']:>10.1f}"
                      + ("   yes" if c["median_ms"] <= 100 else "   NO"))
+    c = result["stop_while_starting"]
+    lines.append(f"{'stop while the daemon starts, ms':<34}{c['median_ms']:>9.1f}{c['p90_ms']:>9.1f}{c['max_ms']:>10.1f}"
+                 f"   (round trip; the loop started in {c['loop_started']} of {c['runs']} runs)")
     return "\n".join(lines)
