@@ -32,10 +32,22 @@ SCENARIO = textwrap.dedent("""
     def fails():
         raise RuntimeError("broken group")
 
+    class Loading:  # a thread while the cached kernels load, as the daemon's socket server
+        def __enter__(self):
+            import threading
+            self.done = threading.Event()
+            self.thread = threading.Thread(target=self.done.wait)
+            self.thread.start()
+        def __exit__(self, *exc):
+            self.done.set()
+            self.thread.join()
+            print("LOADING LEFT", flush=True)
+
     groups = {{"ok": [("add", k.add_once), ("mul", k.mul_once)],
+               "served": [("add", k.add_once), ("mul", k.mul_once)],
                "slow": [("slow", slow)],
                "fails": [("add", k.add_once), ("broken", fails)]}}[sys.argv[1]]
-    p = Precompile(groups).start()
+    p = Precompile(groups).start(loading=Loading() if sys.argv[1] == "served" else None)
     print("WORKERS", len(p.workers), flush=True)
     assert p.wait()
     try:
@@ -107,3 +119,13 @@ def test_a_failed_group_is_reported_and_then_raised_by_the_daemon_itself(tmp_pat
     (failed,) = _named(events, "kernel group failed")
     assert failed["group"] == "broken" and "broken group" in failed["error"]
     assert "RAISED broken group" in plain  # finish() runs it here: the real error, not a lost one
+
+
+def test_the_loading_context_is_left_before_the_workers_fork(tmp_path):
+    """The daemon serves its socket from a thread while cached kernels load; a fork keeps only
+    the forking thread (a lock held elsewhere stays held), so Precompile forks no worker while
+    another thread runs: that thread must be gone first, or a cold start compiles serially."""
+    events, plain = _run(tmp_path, "served")
+    assert "LOADING LEFT" in plain
+    (preparing,) = _named(events, "preparing kernels")
+    assert preparing["workers"] >= 1, preparing  # the thread was joined before the fork
