@@ -88,7 +88,7 @@ def test_residual_drift_covariance_keeps_a_sample_of_exactly_zero():
 
 def test_the_fading_factor_never_holds_a_subnormal_number():
     """E18 (the flush of λ^(k+1) to 0 disabled). sage_husa_step keeps ``fade`` = λᵏ "no
-    subnormals" (a subnormal operand costs ~100 cycles per multiply on x86): with λ = 0.01, λᵏ
+    subnormals" (arithmetic on a subnormal operand is slow on x86: a microcode assist): with λ = 0.01, λᵏ
     passes below the smallest normal double (2.2·10⁻³⁰⁸) after ~154 steps and must be 0 from there
     on, never in between. d_k = (1 − λ)/(1 − λ^(k+1)) is 1 − λ either way."""
     tiny = np.finfo(float).tiny
