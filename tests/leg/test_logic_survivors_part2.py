@@ -5,6 +5,9 @@ each against an expectation worked out by hand or taken from the documentation:
   its own vector"): on a small hand-made table with two exits on the same gate vector, every
   candidate keeps routes that share a spare code and step to different codes on different
   vectors, and the default equals that firing passed explicitly;
+* the assignment search's pruning, counted by hand on a four-state table that two flip-flops
+  cannot hold (no spare code): a placement whose transition to the initial state is not a
+  single step is dropped at once, so the two-flip-flop search is complete in 5 nodes;
 * a flow table's transitions are values: immutable and hashable;
 * the PLA equations of a two-input, hand-made personality in the text style (``¬x``) and the
   LaTeX style (``\\bar{x}``, subscripts, ``\\,``);
@@ -91,6 +94,47 @@ def test_by_default_each_exit_fires_on_its_own_vector(tmp_path):
     own = {(tr.state, tr.gates): 1 << tr.gates for tr in flow.transitions}
     explicit = candidate_assignments(flow, firing=own)
     assert found.candidates == explicit.candidates
+
+
+# Four states, two gates: 1 → 3 → 2 → 1 → 4 → 1. State 1 has three neighbours (2, 3, 4) but a
+# 2-bit code only two, and with four states in four codes there is no spare code to route
+# through: two flip-flops cannot do, three can.
+FOUR_STATES_TABLE = """
+name = "four states, no spare code in two flip-flops"
+cyclic = true
+gates = ["g0", "g1"]
+actuators = ["K1", "K2", "A1", "A2"]
+rows = [
+    [1, "00", "0001", 1],
+    [2, "10", "0011", 3],
+    [3, "11", "0010", 2],
+    [4, "01", "0001", 1],
+    [5, "11", "0100", 4],
+]
+
+[outputs]
+1 = "0001"
+2 = "0010"
+3 = "0011"
+4 = "0100"
+"""
+
+
+def test_the_two_flip_flop_search_drops_a_placement_at_once_when_no_step_joins_it(tmp_path):
+    """The module doc of rtctl.logic.assign: state 1 at code 0, the other states 2, 3, 4 in
+    order, one assignment per renaming of the flip-flops; a partial assignment is dropped when
+    a transition between two placed states has no path (with no spare code: when it is not a
+    single step). By hand, with 2 bits (codes Q1 Q2), the nodes (placements tried) are:
+    2 on 10 (a step from 00: kept) → 3 on 01 (3 → 2 is no step: dropped), 3 on 11 (1 → 3 is
+    none: dropped); 2 on 01 (the renaming of 10: not canonical); 2 on 11 (2 → 1 is no step:
+    dropped). Five nodes, complete (none exists). Placing 3 or 4 after 2 on 11 — the initial
+    state's transitions with the first other state left out of the bound — would take more.
+    With a budget of exactly 5 the two-flip-flop search is still complete."""
+    flow = _flow(tmp_path, FOUR_STATES_TABLE)
+    found = candidate_assignments(flow)
+    assert found.tried[0] == (2, 5, True)
+    assert found.tried[1][0] == 3 and found.tried[1][2] and found.candidates
+    assert candidate_assignments(flow, budget=5).tried[0] == (2, 5, True)
 
 
 def test_a_flow_tables_transitions_are_immutable_values(tmp_path):
