@@ -188,18 +188,19 @@ def test_extrema_of_a_tiny_move_are_its_closed_form_peaks():
     a relative, not absolute, threshold for negligible coefficients."""
     c = np.array([[0.0, 0.0, 0.0, 10e-9, -15e-9, 6e-9]])
     e = extrema(c, 1.0)
-    assert e[2, 0] == pytest.approx(15 / 8 * 1e-9, rel=1e-9)
-    assert e[3, 0] == pytest.approx(10 / np.sqrt(3) * 1e-9, rel=1e-9)
+    assert e[2, 0] == pytest.approx(15 / 8 * 1e-9, rel=1e-9, abs=0.0)
+    assert e[3, 0] == pytest.approx(10 / np.sqrt(3) * 1e-9, rel=1e-9, abs=0.0)
 
 
 def test_extrema_per_joint_whatever_the_other_joints_scale():
-    """T41: two joints, Δ = 1 and 1e-15, T = 1: each has its own closed-form peaks."""
+    """T41: two joints, Δ = 1 and 1e-15, T = 1: each has its own closed-form peaks (no
+    absolute tolerance: pytest's default 1e-12 would accept 0 for the small joint)."""
     d = np.array([1.0, 1e-15])
     c = np.zeros((2, 6))
     c[:, 3], c[:, 4], c[:, 5] = 10 * d, -15 * d, 6 * d
     e = extrema(c, 1.0)
-    assert e[2] == pytest.approx(15 / 8 * d, rel=1e-9)
-    assert e[3] == pytest.approx(10 / np.sqrt(3) * d, rel=1e-9)
+    assert e[2] == pytest.approx(15 / 8 * d, rel=1e-9, abs=0.0)
+    assert e[3] == pytest.approx(10 / np.sqrt(3) * d, rel=1e-9, abs=0.0)
 
 
 def test_extrema_of_a_cubic_has_the_interior_velocity_peak():
@@ -236,3 +237,11 @@ def test_shortest_duration_to_a_position_limit_is_the_closed_form_time(end):
                           np.array([2.0]), lo, hi)
     t_star = r2r(1.0, 1.0, 2.0)
     assert T is not None and t_star * (1 - 1e-9) <= T <= t_star * 1.03
+
+
+def test_points_exactly_the_same_point_tolerance_apart_are_one_point():
+    """T17: ``_SAME_POINT`` (1e-12): points at most that far apart count as one, so a move of
+    exactly 1e-12 is no move — a hold, not a 1 ms segment (the comment said "closer", which
+    left the boundary open; it now says "at most", as the code has always done)."""
+    traj = point_to_point([0.0], [1e-12], LIM1)
+    assert traj.duration == 0.0
