@@ -21,7 +21,7 @@ from rtctl.trajectory.smooth import fit_durations, run_coefficients
 _RTOL = 1e-9
 # the longest segment (11.6 days): a quintic over 1e300 s overflows, and its figures read nan
 MAX_DURATION_S = 1e6
-_SAME_POINT = 1e-12  # rad or m: closer points count as one (no segment between them)
+_SAME_POINT = 1e-12  # rad or m: points at most this far apart count as one (no segment between them)
 
 
 @dataclass(frozen=True, eq=False)
