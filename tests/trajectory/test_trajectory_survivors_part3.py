@@ -1,9 +1,8 @@
-"""Tests for the trajectory mutants that survived the full cosmic-ray run with part 1 and 2 in
-place (survivor list T01..T88, /work/notes/s31/trajectory-survivors.txt): input checks at their
-exact boundary, documented messages, the sampler's documented end and knot behaviour,
-hand-computed extrema of simple polynomials and the closed-form rest-to-rest time. Each test
-names the survivor ids it kills; the classification of all 88 is in
-notes/s31/trajectory-classified.md."""
+"""Tests for the trajectory mutants that survived the full mutation run with parts 1 and 2 in
+place (88 of 1025; docs/testing.md says which are caught here, which are equivalent and which
+only tune the duration search): input checks at their exact boundary, documented messages, the
+sampler's documented end and knot behaviour, hand-computed extrema of simple polynomials and the
+closed-form rest-to-rest time."""
 import re
 from types import SimpleNamespace
 
@@ -28,7 +27,7 @@ LIM1 = JointLimits([1.0], [2.0])
 # ---- piecewise ---------------------------------------------------------------------------
 
 def test_after_the_end_velocity_and_acceleration_are_zero_even_if_the_last_segment_moves():
-    """T02: the module docstring — after the end the sampler holds the last point with zero
+    """The module docstring — after the end the sampler holds the last point with zero
     velocity and acceleration; the hand-built segment q = τ ends moving at 1 rad/s."""
     traj = JointTrajectory([0.0, 1.0], np.array([[[0.0, 1.0, 0.0, 0.0, 0.0, 0.0]]]))
     q, qd, qdd = traj.state_at(2.0)
@@ -36,7 +35,7 @@ def test_after_the_end_velocity_and_acceleration_are_zero_even_if_the_last_segme
 
 
 def test_at_the_end_and_at_a_stop_knot_the_state_is_exactly_the_rest_state():
-    """T01, T04: a stop-mode trajectory is at rest at each waypoint (the boundary conditions
+    """A stop-mode trajectory is at rest at each waypoint (the boundary conditions
     q̇ = q̈ = 0); at the end time the sampler holds (zero exactly) and at an interior knot
     segment k starts (``knots[k]`` belongs to segment k: its c0 is the waypoint, c1 = c2 = 0
     exactly). Evaluating the previous segment's polynomial at its end instead leaves rounding."""
@@ -51,7 +50,7 @@ def test_at_the_end_and_at_a_stop_knot_the_state_is_exactly_the_rest_state():
 
 
 def test_non_finite_coefficients_with_finite_knots_are_refused():
-    """T05: the documented refusal — "trajectory has non-finite knots or coefficients"."""
+    """The documented refusal — "trajectory has non-finite knots or coefficients"."""
     c = np.zeros((1, 1, 6))
     c[0, 0, 3] = np.nan
     with pytest.raises(TrajectoryError, match="non-finite knots or coefficients"):
@@ -62,19 +61,19 @@ def test_non_finite_coefficients_with_finite_knots_are_refused():
 
 @pytest.mark.parametrize("a_max", [0.0, -0.5])
 def test_acceleration_limit_zero_or_negative_is_refused(a_max):
-    """T08, T09: the docstring — velocity and acceleration limits > 0; 0 is the boundary."""
+    """The docstring — velocity and acceleration limits > 0; 0 is the boundary."""
     with pytest.raises(TrajectoryError, match="must be positive"):
         JointLimits([1.0], [a_max])
 
 
 def test_equal_position_limits_are_refused():
-    """T10, T11: the documented check q_min < q_max, at equality (shapes all right)."""
+    """The documented check q_min < q_max, at equality (shapes all right)."""
     with pytest.raises(TrajectoryError, match="q_min < q_max"):
         JointLimits([1.0, 1.0], [1.0, 1.0], q_min=[-1.0, 0.5], q_max=[1.0, 0.5])
 
 
 def test_from_model_without_a_scale_takes_the_models_velocity_limits():
-    """T12, T13: no velocity_scale given → the model's own velocity limits (scale 1)."""
+    """No velocity_scale given → the model's own velocity limits (scale 1)."""
     model = SimpleNamespace(nq=2, v_max=np.array([1.5, 2.5]), q_min=np.array([-1.0, -2.0]),
                             q_max=np.array([1.0, 2.0]))
     lim = JointLimits.from_model(model, 3.0)
@@ -84,7 +83,7 @@ def test_from_model_without_a_scale_takes_the_models_velocity_limits():
 # ---- through_waypoints / point_to_point ----------------------------------------------------
 
 def test_through_waypoints_takes_its_options_by_keyword_only():
-    """T15: the signature's ``*`` — start, smooth, dwell, durations, t0 are keyword-only, and
+    """The signature's ``*`` — start, smooth, dwell, durations, t0 are keyword-only, and
     waypoints and limits can be named."""
     traj = through_waypoints(waypoints=[[1.0]], limits=LIM1, start=[0.0])
     assert traj.duration == pytest.approx(r2r(1.0, 1.0, 2.0), rel=1e-12)
@@ -93,7 +92,7 @@ def test_through_waypoints_takes_its_options_by_keyword_only():
 
 
 def test_no_waypoints_are_refused_even_with_a_start():
-    """T16: the documented check "waypoints must be (m, n)" for m = 0 (with a start the mutant
+    """The documented check "waypoints must be (m, n)" for m = 0 (with a start the mutant
     returns a hold at the start instead)."""
     for start in (None, [0.0, 0.0]):
         with pytest.raises(TrajectoryError, match=re.escape("waypoints must be (m, 2), got (0, 2)")):
@@ -101,7 +100,7 @@ def test_no_waypoints_are_refused_even_with_a_start():
 
 
 def test_a_duration_between_a_repeated_point_and_itself_is_a_wait_even_below_one_second():
-    """T19: the docstring — a duration between a repeated point and itself is a wait."""
+    """The docstring — a duration between a repeated point and itself is a wait."""
     traj = through_waypoints([[0.5], [0.5]], LIM1, durations=[0.25])
     assert traj.duration == 0.25
     assert traj.state_at(0.1)[0][0] == 0.5
@@ -109,7 +108,7 @@ def test_a_duration_between_a_repeated_point_and_itself_is_a_wait_even_below_one
 
 @pytest.mark.parametrize("bad", [0.0, -0.5])
 def test_a_zero_or_negative_requested_duration_gets_the_documented_message(bad):
-    """T23, T24: `_check_durations` — a duration must be positive (0 is the boundary); the
+    """`_check_durations` — a duration must be positive (0 is the boundary); the
     message says so, not that the limits need more."""
     with pytest.raises(TrajectoryError, match=r"duration 0: .* must be positive and at most 1e\+06 s"):
         point_to_point([0.0], [1.0], LIM1, duration=bad)
@@ -118,7 +117,7 @@ def test_a_zero_or_negative_requested_duration_gets_the_documented_message(bad):
 
 
 def test_a_duration_just_above_the_maximum_is_refused():
-    """T07: MAX_DURATION_S = 1e6 s (the docstring: at most 1e6); 1e6 + 0.5 is refused."""
+    """MAX_DURATION_S = 1e6 s (the docstring: at most 1e6); 1e6 + 0.5 is refused."""
     with pytest.raises(TrajectoryError, match="at most"):
         point_to_point([0.0], [1.0], LIM1, duration=1e6 + 0.5)
 
@@ -126,7 +125,7 @@ def test_a_duration_just_above_the_maximum_is_refused():
 # ---- retarget ------------------------------------------------------------------------------
 
 def test_retarget_message_gives_the_peak_velocity_ratio():
-    """T27: from rest, Δ = 1 in 1 s: the min-jerk peak speed is 15/8 rad/s, so against
+    """From rest, Δ = 1 in 1 s: the min-jerk peak speed is 15/8 rad/s, so against
     v_max = 0.5 the message's "peak |q̇|/v_max" is 3.75 (a_max large: not the limit)."""
     lim = JointLimits([0.5], [100.0])
     with pytest.raises(TrajectoryError, match=r"peak \|q̇\|/v_max 3\.75,"):
@@ -134,7 +133,7 @@ def test_retarget_message_gives_the_peak_velocity_ratio():
 
 
 def test_retarget_takes_its_options_by_keyword_only():
-    """T31: the signature's ``*`` — duration, durations, smooth, dwell are keyword-only."""
+    """The signature's ``*`` — duration, durations, smooth, dwell are keyword-only."""
     with pytest.raises(TypeError):
         retarget(0.0, [0.0], [0.0], [0.0], [[1.0]], LIM1, 5.0)
     traj = retarget(t=0.0, q=[0.0], qd=[0.0], qdd=[0.0], waypoints=[[1.0]], limits=LIM1)
@@ -142,7 +141,7 @@ def test_retarget_takes_its_options_by_keyword_only():
 
 
 def test_retarget_from_rest_goes_to_the_first_waypoint_in_its_closed_form_time_and_stops_there():
-    """T33, T34, T35: from rest the first move is the rest-to-rest quintic to waypoint 0 in the
+    """From rest the first move is the rest-to-rest quintic to waypoint 0 in the
     closed-form time; by default (smooth=False, as through_waypoints) it then stops at every
     waypoint — zero velocity at waypoint 1 too."""
     W = [[0.2], [0.6], [1.4]]
@@ -157,7 +156,7 @@ def test_retarget_from_rest_goes_to_the_first_waypoint_in_its_closed_form_time_a
 
 
 def test_retarget_with_a_duration_that_one_quintic_meets_is_that_one_quintic():
-    """T36, T37: moving at v0 = 0.5 with duration 2 to waypoint 0 at the braking target
+    """Moving at v0 = 0.5 with duration 2 to waypoint 0 at the braking target
     q0 + v0·T/2 = 0.5: one quintic (velocity v0(1−s)²(1+2s) ≤ 0.5, |q̈| ≤ 1.5·v0/T = 0.375,
     by hand within 1 and 2) — so no braking segment, waypoint 0 reached at t + 2 whatever the
     later (far) waypoint."""
@@ -171,7 +170,7 @@ def test_retarget_with_a_duration_that_one_quintic_meets_is_that_one_quintic():
 
 
 def test_retarget_duration_exactly_the_braking_time_is_refused_with_the_documented_reason():
-    """T30: when braking takes the whole requested duration nothing is left for the move
+    """When braking takes the whole requested duration nothing is left for the move
     (``_brake_then_move``: "when nothing is left, the requested time cannot be met") — the
     message names the time the current motion needs to come to rest."""
     lim = JointLimits([1.0], [2.0])
@@ -184,7 +183,7 @@ def test_retarget_duration_exactly_the_braking_time_is_refused_with_the_document
 # ---- quintic: extrema and fits -------------------------------------------------------------
 
 def test_extrema_of_a_tiny_move_are_its_closed_form_peaks():
-    """T40: Δ = 1e-9 in T = 1: |q̇| peaks at 15/8·Δ, |q̈| at 10/√3·Δ (the module docstring) —
+    """Δ = 1e-9 in T = 1: |q̇| peaks at 15/8·Δ, |q̈| at 10/√3·Δ (the module docstring) —
     a relative, not absolute, threshold for negligible coefficients."""
     c = np.array([[0.0, 0.0, 0.0, 10e-9, -15e-9, 6e-9]])
     e = extrema(c, 1.0)
@@ -193,7 +192,7 @@ def test_extrema_of_a_tiny_move_are_its_closed_form_peaks():
 
 
 def test_extrema_per_joint_whatever_the_other_joints_scale():
-    """T41: two joints, Δ = 1 and 1e-15, T = 1: each has its own closed-form peaks (no
+    """Two joints, Δ = 1 and 1e-15, T = 1: each has its own closed-form peaks (no
     absolute tolerance: pytest's default 1e-12 would accept 0 for the small joint)."""
     d = np.array([1.0, 1e-15])
     c = np.zeros((2, 6))
@@ -204,21 +203,21 @@ def test_extrema_per_joint_whatever_the_other_joints_scale():
 
 
 def test_extrema_of_a_cubic_has_the_interior_velocity_peak():
-    """T43: q = 3τ² − 2τ³ on [0, 1]: q̇ = 6τ(1 − τ) peaks at 1.5 (τ = ½, where the linear q̈
+    """Q = 3τ² − 2τ³ on [0, 1]: q̇ = 6τ(1 − τ) peaks at 1.5 (τ = ½, where the linear q̈
     vanishes); |q̈| = |6 − 12τ| peaks at 6 at the ends; q runs 0 … 1."""
     e = extrema(np.array([[0.0, 0.0, 3.0, -2.0, 0.0, 0.0]]), 1.0)
     assert e[:, 0] == pytest.approx([0.0, 1.0, 1.5, 6.0], abs=1e-12)
 
 
 def test_extrema_ignore_critical_points_before_the_start():
-    """T53: q = −(τ + ½)² on [0, 1]: q̇ = 0 only at τ = −½ (outside), so q runs −2.25 … −0.25
+    """Q = −(τ + ½)² on [0, 1]: q̇ = 0 only at τ = −½ (outside), so q runs −2.25 … −0.25
     and |q̇| = |2τ + 1| peaks at 3, |q̈| = 2."""
     e = extrema(np.array([[-0.25, -1.0, -1.0, 0.0, 0.0, 0.0]]), 1.0)
     assert e[:, 0] == pytest.approx([-2.25, -0.25, 3.0, 2.0], abs=1e-12)
 
 
 def test_a_segment_exactly_at_its_limits_fits():
-    """T79, T80: q = τ on [0, 1] has |q̇| = 1 exactly and spans exactly [0, 1]: with v_max = 1,
+    """Q = τ on [0, 1] has |q̇| = 1 exactly and spans exactly [0, 1]: with v_max = 1,
     q_max = 1 and no tolerance (rtol = 0) it stays within the limits (limits are inclusive: a
     planned segment "just meets" them)."""
     c = np.array([[0.0, 1.0, 0.0, 0.0, 0.0, 0.0]])
@@ -228,7 +227,7 @@ def test_a_segment_exactly_at_its_limits_fits():
 
 @pytest.mark.parametrize("end", ["q_max", "q_min"])
 def test_shortest_duration_to_a_position_limit_is_the_closed_form_time(end):
-    """T70, T71: from rest to a target exactly at a position limit (the rest-to-rest quintic
+    """From rest to a target exactly at a position limit (the rest-to-rest quintic
     is monotone, so it touches the limit only at its end): the closed-form time within the
     documented ≈ 2 % — not None."""
     lo, hi = np.array([-1.0]), np.array([1.0])
@@ -240,7 +239,7 @@ def test_shortest_duration_to_a_position_limit_is_the_closed_form_time(end):
 
 
 def test_points_exactly_the_same_point_tolerance_apart_are_one_point():
-    """T17: ``_SAME_POINT`` (1e-12): points at most that far apart count as one, so a move of
+    """``_SAME_POINT`` (1e-12): points at most that far apart count as one, so a move of
     exactly 1e-12 is no move — a hold, not a 1 ms segment (the comment said "closer", which
     left the boundary open; it now says "at most", as the code has always done)."""
     traj = point_to_point([0.0], [1e-12], LIM1)
