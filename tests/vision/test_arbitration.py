@@ -18,11 +18,13 @@ from drivers.protocols.framegrabber_host import HostPort
 from rtctl.hal.framegrabber import GrabberSettings
 
 SETTINGS = GrabberSettings(density=128, scan="frame", levels=256, word_bits=32)
-FRAMES = 10_000
+ENOUGH = {"read": 200, "held": 20}  # the reader's checks before it lets the device stop
+GIVE_UP_S = 120.0  # (a loaded machine may starve either side for a while: volume, not speed, is the test)
 
 
-def _writer(name: str, frames: int, result) -> None:
-    """The device at full rate: reserve, write row by row (slowly enough to be caught), publish."""
+def _writer(name: str, stop, result) -> None:
+    """The device at full rate until ``stop``: reserve, write row by row (slowly enough to be
+    caught), publish."""
     shm = attach_shared_memory(name)
     memory = GrabberMemory(shm.buf)
     dev = DevicePort(memory)
@@ -30,7 +32,7 @@ def _writer(name: str, frames: int, result) -> None:
         time.sleep(1e-3)
     gen, words = regs
     rows = SETTINGS.rows
-    while dev.seq < frames:
+    while not stop.is_set():
         slot = dev.reserve()
         if slot < 0:
             continue
@@ -52,12 +54,16 @@ def test_slow_reader_across_processes_never_sees_a_torn_frame():
         host = HostPort(memory)
         host.program(SETTINGS)
         ctx = multiprocessing.get_context("spawn")
-        result = ctx.Queue()
-        writer = ctx.Process(target=_writer, args=(shm.name, FRAMES, result))
+        result, stop = ctx.Queue(), ctx.Event()
+        writer = ctx.Process(target=_writer, args=(shm.name, stop, result))
         writer.start()
         rng = random.Random(7)
         read, seqs, held_checks = 0, [], 0
+        give_up = time.monotonic() + GIVE_UP_S
         while True:
+            if (read >= ENOUGH["read"] and held_checks >= ENOUGH["held"] and host.dropped > 0
+                    or time.monotonic() > give_up):
+                stop.set()  # then the last frames: the reader must see the very last one
             done = not writer.is_alive()
             frame = host.take(0.0, time.monotonic_ns())
             if frame is not None:
@@ -74,10 +80,9 @@ def test_slow_reader_across_processes_never_sees_a_torn_frame():
             time.sleep(rng.uniform(0, 0.0003))  # deliberately slower than the device
         written, skipped = result.get(timeout=10)
         writer.join(10)
-        assert written >= FRAMES
         assert seqs == sorted(set(seqs)) and seqs[-1] == written  # in order, no repeats, the last one seen
         assert host.read == read and host.dropped == written - read  # exactly
-        assert host.dropped > 0 and read > 100 and held_checks > 10
+        assert host.dropped > 0 and read >= ENOUGH["read"] and held_checks >= ENOUGH["held"], (read, held_checks)
         assert skipped == 0  # with four slots the device always had a free one
         del frame, data, host, memory
     finally:
