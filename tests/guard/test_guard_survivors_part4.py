@@ -1,0 +1,46 @@
+"""Tests for the guard mutants that survived a wider sample (49 mutants, docs/testing.md): the
+planner's and the runtime guard's documented input checks, each half of an ``or`` on its own,
+and ``clip`` on a segment that slides along a face of the open piece (the boundary is outside)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rtctl.guard import Box, RuntimeGuard, Scene, Zone
+from rtctl.guard.kernels import NO_ENTRY, clip
+from rtctl.guard.planner import plan_path
+
+
+def _scene():
+    return Scene([Zone("far", [Box((0, 1), [5.0, 5.0], [6.0, 6.0])])], [-2.0, -2.0], [2.0, 2.0])
+
+
+@pytest.mark.parametrize("q0", [[0.0, np.nan], [0.0, 0.0, 0.0], [[0.0, 0.0]]],
+                         ids=["a NaN of the right shape", "finite, one joint too many", "finite, 2-D"])
+def test_plan_path_refuses_a_start_that_is_not_n_finite_joint_values(q0):
+    """The docstring's check "q0 must be n finite joint values": a wrong shape and a non-finite
+    value are each refused on their own (``or``: either one is enough)."""
+    with pytest.raises(ValueError, match="q0 must be 2 finite joint values"):
+        plan_path(_scene(), q0, [0.5, 0.5])
+
+
+@pytest.mark.parametrize("margin", [-0.1, np.inf, np.nan])
+def test_the_runtime_guard_refuses_a_negative_or_non_finite_margin(margin):
+    """The documented "a finite guard margin >= 0": −0.1 is finite but negative, +∞ is ≥ 0 but
+    not finite — each is refused by its own half of the check."""
+    with pytest.raises(ValueError, match="finite guard margin >= 0"):
+        RuntimeGuard(_scene(), 10.0, 0.001, margin=margin)
+
+
+def test_clip_a_segment_sliding_along_a_face_of_the_open_piece_does_not_enter():
+    """``clip`` works on the *open* piece: a point exactly on a face is outside it. The square
+    |x0| < 1, |x1| < 1 as four faces w·q < c; a→b runs along x0 = 1 (room 0 on that face, rate
+    0: it never reaches the inner side) — (NO_ENTRY, −1), where counting room 0 as inside would
+    say "a is inside" (0, −1)."""
+    rows = np.array([[1.0, 0.0, 1.0], [-1.0, 0.0, 1.0], [0.0, 1.0, 1.0], [0.0, -1.0, 1.0]])
+    cols = np.array([[0, 1]] * 4, dtype=np.int64)
+    a, b = np.array([1.0, 0.0]), np.array([1.0, 0.5])
+    assert clip(rows, cols, 0, 4, a, b, 0.0) == (NO_ENTRY, -1)
+    # just inside the face, the same motion is inside from its start
+    a_in, b_in = np.array([0.5, 0.0]), np.array([0.5, 0.5])
+    assert clip(rows, cols, 0, 4, a_in, b_in, 0.0) == (0.0, -1)
