@@ -44,3 +44,29 @@ def test_clip_a_segment_sliding_along_a_face_of_the_open_piece_does_not_enter():
     # just inside the face, the same motion is inside from its start
     a_in, b_in = np.array([0.5, 0.0]), np.array([0.5, 0.5])
     assert clip(rows, cols, 0, 4, a_in, b_in, 0.0) == (0.0, -1)
+
+
+def test_the_clamp_keeps_an_outward_command_however_small():
+    """``_push_out``'s docstring: the clamp drops the command's *inward* component only. A torque
+    of 0.5 along the outward normal (no depth, no speed: no wall force) passes unchanged; −0.5
+    (inward) is dropped to 0."""
+    from rtctl.guard.kernels import N_PARAMS, _push_out
+
+    par = np.zeros(N_PARAMS)
+    for tau0, expected in ((0.5, 0.5), (-0.5, 0.0)):
+        q, qd, q_des, qd_des, tau = np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1), np.array([tau0])
+        _push_out(0, 0, 1.0, 0.0, 0.0, q, qd, q_des, qd_des, tau, 0, par)
+        assert tau[0] == expected, (tau0, tau[0])
+
+
+def test_the_visibility_route_between_two_points_that_see_each_other_is_the_segment():
+    """With nothing between a and b the shortest path is the straight segment a → b (two
+    points), not a detour by the corners of an obstacle elsewhere."""
+    import shapely
+
+    from rtctl.guard.visibility import VisibilityMap
+
+    m = VisibilityMap([shapely.box(2.0, 2.0, 3.0, 3.0)], (0.0, 0.0, 10.0, 10.0))
+    a, b = np.array([0.5, 0.5]), np.array([1.5, 0.5])
+    path = m.shortest_path(a, b, lambda p, q: True)
+    assert path is not None and path.shape == (2, 2) and np.array_equal(path, [a, b]), path
