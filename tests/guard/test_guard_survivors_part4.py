@@ -70,3 +70,20 @@ def test_the_visibility_route_between_two_points_that_see_each_other_is_the_segm
     a, b = np.array([0.5, 0.5]), np.array([1.5, 0.5])
     path = m.shortest_path(a, b, lambda p, q: True)
     assert path is not None and path.shape == (2, 2) and np.array_equal(path, [a, b]), path
+
+
+def test_event_due_is_true_only_on_the_tick_an_episode_starts():
+    """The guard protocol (rtctl/safety/faults.py): ``event_due`` is True on the tick a violation
+    episode starts — not on the clear tick after it, which other wrappers (a cell's shared zones)
+    read as they find it."""
+    from rtctl.hal.joints import JointCommand, JointState
+    from rtctl.safety import GuardVerdict
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0], margin=0.1)
+    g = RuntimeGuard(scene, np.array([10.0, 20.0]), 0.001, margin=0.02)
+    state, command = JointState(2), JointCommand(2)
+    state.position[:] = [-0.51, 0.0]  # at rest inside the band: a stop
+    assert g.check(0.0, state, command) == GuardVerdict.STOP and g.event_due
+    state.position[:] = [-2.0, 0.0]  # far and at rest: clear
+    assert g.check(0.001, state, command) == GuardVerdict.PASS
+    assert not g.event_due
