@@ -87,3 +87,16 @@ def test_event_due_is_true_only_on_the_tick_an_episode_starts():
     state.position[:] = [-2.0, 0.0]  # far and at rest: clear
     assert g.check(0.001, state, command) == GuardVerdict.PASS
     assert not g.event_due
+
+
+def test_a_one_joint_band_reaches_past_the_planes_bounds_on_both_axes():
+    """``Scene.inflated_shape``: a one-joint piece is a band across the plane; it reaches past
+    the plane's bounds (lo0, lo1, hi0, hi1) — here lo1 = −10 far from lo0 = 0, so a band built
+    from the wrong corner would end exactly at the edge, where a route could slip round it."""
+    import shapely
+
+    scene = Scene([Zone("band", [Box((0,), [0.4], [0.6])])], [-20.0, -20.0], [20.0, 20.0])
+    shape = scene.inflated_shape(0, (0, 1), 0.0, (0.0, -10.0, 1.0, 10.0))
+    for y in (-10.5, 0.0, 10.5):
+        assert shape.covers(shapely.Point(0.5, y)), y
+    assert not shape.covers(shapely.Point(0.7, 0.0))  # and only the band
