@@ -1,6 +1,8 @@
-"""Tests for the guard mutants that survived a wider sample (49 mutants, docs/testing.md): the
-planner's and the runtime guard's documented input checks, each half of an ``or`` on its own,
-and ``clip`` on a segment that slides along a face of the open piece (the boundary is outside)."""
+"""Tests for the guard mutants that survived wider samples (49, then 111 mutants; docs/testing.md):
+the planner's and the runtime guard's documented input checks, each half of an ``or`` on its own,
+``clip`` on a segment that slides along a face of the open piece (the boundary is outside), the
+clamp's outward command, the visibility route's direct segment, the guard protocol's
+``event_due`` and a one-joint band across the plane."""
 from __future__ import annotations
 
 import numpy as np
