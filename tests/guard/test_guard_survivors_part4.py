@@ -2,7 +2,7 @@
 the planner's and the runtime guard's documented input checks, each half of an ``or`` on its own,
 ``clip`` on a segment that slides along a face of the open piece (the boundary is outside), the
 clamp's outward command, the visibility route's direct segment, the guard protocol's
-``event_due`` and a one-joint band across the plane."""
+``event_due``, a one-joint band across the plane and a smooth route's trajectory."""
 from __future__ import annotations
 
 import numpy as np
@@ -102,3 +102,24 @@ def test_a_one_joint_band_reaches_past_the_planes_bounds_on_both_axes():
     for y in (-10.5, 0.0, 10.5):
         assert shape.covers(shapely.Point(0.5, y)), y
     assert not shape.covers(shapely.Point(0.7, 0.0))  # and only the band
+
+
+def test_a_smooth_route_trajectory_starts_at_the_route_start_and_passes_its_via_point_moving():
+    """``route_trajectory(smooth=True)``, nothing in the way: the trajectory starts at the route's
+    first point and is the smooth kind it reports — a via point passed with a velocity, not a stop
+    (a stop-at-each-waypoint trajectory would be at rest there)."""
+    from rtctl.guard.motion import plan_route, route_trajectory
+    from rtctl.trajectory import JointLimits
+
+    scene = Scene([Zone("far", [Box((0, 1), [5.0, 5.0], [6.0, 6.0])])], [-8.0, -8.0], [8.0, 8.0])
+    route = plan_route(scene, [0.0, 0.0], [[1.0, 0.5], [2.0, 0.0]])
+    assert len(route.points) == 3  # no bypass: start, via point, end
+    trajectory, smooth = route_trajectory(scene, route, JointLimits([1.0, 1.0], [2.0, 2.0]), smooth=True)
+    assert smooth
+    q, qd, qdd = np.zeros(2), np.zeros(2), np.zeros(2)
+    trajectory.sample(0.0, q, qd, qdd)
+    assert np.array_equal(q, [0.0, 0.0])
+    knots = trajectory.knots
+    trajectory.sample(float(knots[1]), q, qd, qdd)
+    np.testing.assert_allclose(q, [1.0, 0.5], atol=1e-12)
+    assert abs(qd[0]) > 0.1, qd  # joint 0 goes on in the same direction: it passes moving
