@@ -123,3 +123,36 @@ def test_a_smooth_route_trajectory_starts_at_the_route_start_and_passes_its_via_
     trajectory.sample(float(knots[1]), q, qd, qdd)
     np.testing.assert_allclose(q, [1.0, 0.5], atol=1e-12)
     assert abs(qd[0]) > 0.1, qd  # joint 0 goes on in the same direction: it passes moving
+
+
+def _bfs_steps(grid) -> int | None:
+    """Fewest unit steps from the grid's origin to a node that reaches the goal (brute force)."""
+    from collections import deque
+
+    if not grid.free(grid.origin):
+        return None
+    seen, todo = {grid.origin: 0}, deque([grid.origin])
+    while todo:
+        key = todo.popleft()
+        if grid.reaches_goal(key):
+            return seen[key]
+        for nb in grid.neighbours(key):
+            if nb not in seen:
+                seen[nb] = seen[key] + 1
+                todo.append(nb)
+    return None
+
+
+@pytest.mark.parametrize("start, goal", [([-1.5, 0.1], [1.5, -0.2]), ([-1.5, -1.5], [1.5, 1.5]),
+                                         ([0.1, -1.6], [-0.2, 1.6])])
+def test_astar_finds_a_shortest_grid_path_around_an_obstacle(start, goal):
+    """A* with its consistent heuristic returns a path of the fewest unit steps — what a
+    breadth-first search of the same grid finds — around a box in the way."""
+    from rtctl.guard.grid import Grid, astar
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.6, -0.9], [0.6, 0.9])])], [-2.0, -2.0], [2.0, 2.0])
+    grid = Grid(scene.tables(), start, goal, [0, 1], 0.25, 0.05, [-2.0, -2.0], [2.0, 2.0])
+    route, _ = astar(grid)
+    assert route is not None
+    assert len(route) - 1 == _bfs_steps(grid)
+    assert all(sum(abs(p - q) for p, q in zip(a, b)) == 1 for a, b in zip(route, route[1:]))  # unit steps
