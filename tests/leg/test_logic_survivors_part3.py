@@ -1,0 +1,48 @@
+"""Tests for the logic (leg synthesis) mutants that survived a third sample (docs/testing.md),
+each against an expectation worked out by hand or taken from the documentation:
+
+* the compile report of a two-state, one-gate table: its flip-flop is named Q1 (flip-flops are
+  numbered from 1) and every state is listed with its code, the initial state at code 0;
+* the emulator starts at code 0, the power-on state the report documents.
+"""
+import numpy as np
+
+from rtctl.logic import CircuitModel, compile_table, load_table
+from rtctl.logic.emulate import Emulator
+from rtctl.logic.report import format_compile
+from rtctl.logic.verify import agreement, race_proof
+
+# Two states, one gate: state 1 (actuator off) leaves to 2 when g rises, 2 back to 1 when it falls.
+TWO_STATE_TABLE = """
+name = "two states"
+cyclic = true
+gates = ["g"]
+actuators = ["A"]
+rows = [
+    [1, "0", "0", 1],
+    [2, "1", "1", 2],
+]
+
+[outputs]
+1 = "0"
+2 = "1"
+"""
+
+
+def _circuit(tmp_path):
+    path = tmp_path / "t.toml"
+    path.write_text(TWO_STATE_TABLE)
+    return compile_table(load_table(path))
+
+
+def test_report_names_the_flip_flop_q1_and_lists_every_state(tmp_path):
+    circuit = _circuit(tmp_path)
+    model = CircuitModel.from_pla(circuit.pla, 1, circuit.n_bits)
+    lines = format_compile(circuit, agreement(circuit, model), race_proof(circuit, model)).splitlines()
+    k = lines.index("State assignment (1 J-K flip-flops, Q1; code 0 at power-on):")
+    assert lines[k + 1:k + 3] == ["  state 1 = 0", "  state 2 = 1"]
+
+
+def test_emulator_starts_at_the_power_on_code_0(tmp_path):
+    emu = Emulator(CircuitModel.from_pla(_circuit(tmp_path).pla, 1, 1))
+    assert emu.code == 0
