@@ -5,12 +5,13 @@ each against an expectation worked out by hand or taken from the documentation:
   numbered from 1) and every state is listed with its code, the initial state at code 0;
 * the emulator starts at code 0, the power-on state the report documents.
 """
-import numpy as np
+import pytest
 
 from rtctl.logic import CircuitModel, compile_table, load_table
 from rtctl.logic.emulate import Emulator
 from rtctl.logic.report import format_compile
 from rtctl.logic.verify import agreement, race_proof
+from rtctl.errors import ConfigError
 
 # Two states, one gate: state 1 (actuator off) leaves to 2 when g rises, 2 back to 1 when it falls.
 TWO_STATE_TABLE = """
@@ -46,3 +47,22 @@ def test_report_names_the_flip_flop_q1_and_lists_every_state(tmp_path):
 def test_emulator_starts_at_the_power_on_code_0(tmp_path):
     emu = Emulator(CircuitModel.from_pla(_circuit(tmp_path).pla, 1, 1))
     assert emu.code == 0
+
+
+def test_circuit_semantics_names_the_one_it_was_compiled_with(tmp_path):
+    """compile_table(table, semantics): the circuit reports "exact" (the default) or "guard",
+    and so does the first line of its report."""
+    path = tmp_path / "t.toml"
+    path.write_text(TWO_STATE_TABLE)
+    table = load_table(path)
+    assert compile_table(table).semantics == "exact"
+    assert compile_table(table, "guard").semantics == "guard"
+
+
+def test_a_non_cyclic_table_whose_last_state_never_leaves_names_cyclic_false(tmp_path):
+    """The last state of a non-cyclic table has no row leaving it: the error says so and points
+    at ``cyclic = false``; a cyclic table's error would not."""
+    path = tmp_path / "t.toml"
+    path.write_text(TWO_STATE_TABLE.replace("cyclic = true", "cyclic = false"))
+    with pytest.raises(ConfigError, match=r"an exit from state 2 \(no row leaves it; cyclic = false\)"):
+        load_table(path)
