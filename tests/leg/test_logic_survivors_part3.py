@@ -3,11 +3,19 @@ each against an expectation worked out by hand or taken from the documentation:
 
 * the compile report of a two-state, one-gate table: its flip-flop is named Q1 (flip-flops are
   numbered from 1) and every state is listed with its code, the initial state at code 0;
-* the emulator starts at code 0, the power-on state the report documents.
+* the emulator starts at code 0, the power-on state the report documents;
+* a circuit names the semantics it was compiled with ("exact" by default, or "guard");
+* the error for a non-cyclic table whose last state never leaves points at ``cyclic = false``;
+* ``rtctl leg compile`` exits 0 when the synthesis agrees with its own proof and 1 when the
+  circuit disagrees with its automaton, even if the race proof holds.
 """
+from types import SimpleNamespace
+
 import pytest
 
 from rtctl.logic import CircuitModel, compile_table, load_table
+from rtctl.logic import cli
+from rtctl.logic.cli import leg_command
 from rtctl.logic.emulate import Emulator
 from rtctl.logic.report import format_compile
 from rtctl.logic.verify import agreement, race_proof
@@ -66,3 +74,28 @@ def test_a_non_cyclic_table_whose_last_state_never_leaves_names_cyclic_false(tmp
     path.write_text(TWO_STATE_TABLE.replace("cyclic = true", "cyclic = false"))
     with pytest.raises(ConfigError, match=r"an exit from state 2 \(no row leaves it; cyclic = false\)"):
         load_table(path)
+
+
+def _compile_args(path):
+    return SimpleNamespace(leg_command="compile", pla=None, table=str(path), semantics="exact")
+
+
+def test_leg_compile_exits_0_when_the_synthesis_agrees_with_its_proof(tmp_path, capsys):
+    path = tmp_path / "t.toml"
+    path.write_text(TWO_STATE_TABLE)
+    assert leg_command(_compile_args(path)) == 0
+
+
+def test_leg_compile_exits_1_on_a_mismatch_even_when_the_race_proof_holds(tmp_path, capsys, monkeypatch):
+    """A circuit that disagrees with its automaton is a bug: exit 1, whatever the race proof says."""
+    path = tmp_path / "t.toml"
+    path.write_text(TWO_STATE_TABLE)
+
+    def disagreeing(circuit, model):
+        agree = agreement(circuit, model)
+        agree["mismatches"] = [{"state": 1, "gates": "1", "kind": "exit", "expected": 2, "got": 1}]
+        return agree
+
+    monkeypatch.setattr(cli, "agreement", disagreeing)
+    assert leg_command(_compile_args(path)) == 1
+    assert "1 MISMATCHES" in capsys.readouterr().out
