@@ -7,16 +7,19 @@ each against an expectation worked out by hand or taken from the documentation:
 * a circuit names the semantics it was compiled with ("exact" by default, or "guard");
 * the error for a non-cyclic table whose last state never leaves points at ``cyclic = false``;
 * ``rtctl leg compile`` exits 0 when the synthesis agrees with its own proof and 1 when the
-  circuit disagrees with its automaton, even if the race proof holds.
+  circuit disagrees with its automaton, even if the race proof holds;
+* the PLA matrix of a hand-made personality: column names written vertically, bottom-aligned.
 """
 from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from rtctl.logic import CircuitModel, compile_table, load_table
 from rtctl.logic import cli
 from rtctl.logic.cli import leg_command
 from rtctl.logic.emulate import Emulator
+from rtctl.logic.pla import Pla
 from rtctl.logic.report import format_compile
 from rtctl.logic.verify import agreement, race_proof
 from rtctl.errors import ConfigError
@@ -99,3 +102,20 @@ def test_leg_compile_exits_1_on_a_mismatch_even_when_the_race_proof_holds(tmp_pa
     monkeypatch.setattr(cli, "agreement", disagreeing)
     assert leg_command(_compile_args(path)) == 1
     assert "1 MISMATCHES" in capsys.readouterr().out
+
+
+def test_pla_matrix_writes_column_names_vertically_bottom_aligned():
+    """Inputs a, Q1; outputs J1, K1', A2 (J1 = a ¬Q1, K1' = Q1, A2 = 1): names read downwards,
+    bottom-aligned over their columns; then one row per product term, AND plane | OR plane."""
+    terms = ((0b11, 0b01), (0b10, 0b10), (0b00, 0b00))
+    plane = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1]], dtype=bool)
+    pla = Pla(("a", "Q1"), ("J1", "K1'", "A2"), terms, plane)
+    assert pla.matrix().splitlines() == [
+        "        |  K ",
+        "      Q | J1A",
+        "     a1 | 1'2",
+        "     ---+----",
+        "P1   10 | 1..",
+        "P2   -1 | .1.",
+        "P3   -- | ..1",
+    ]
