@@ -8,7 +8,8 @@ each against an expectation worked out by hand or taken from the documentation:
 * the error for a non-cyclic table whose last state never leaves points at ``cyclic = false``;
 * ``rtctl leg compile`` exits 0 when the synthesis agrees with its own proof and 1 when the
   circuit disagrees with its automaton, even if the race proof holds;
-* the PLA matrix of a hand-made personality: column names written vertically, bottom-aligned.
+* the PLA matrix of a hand-made personality: column names written vertically, bottom-aligned;
+* the flip-flop limit at its boundary: exactly 2**MAX_BITS states are accepted, one more refused.
 """
 from types import SimpleNamespace
 
@@ -18,7 +19,9 @@ import pytest
 from rtctl.logic import CircuitModel, compile_table, load_table
 from rtctl.logic import cli
 from rtctl.logic.cli import leg_command
+from rtctl.logic.assign import MAX_BITS, AssignmentError, candidate_assignments
 from rtctl.logic.emulate import Emulator
+from rtctl.logic.flow import FlowTable
 from rtctl.logic.pla import Pla
 from rtctl.logic.report import format_compile
 from rtctl.logic.verify import agreement, race_proof
@@ -119,3 +122,21 @@ def test_pla_matrix_writes_column_names_vertically_bottom_aligned():
         "P2   -1 | .1.",
         "P3   -- | ..1",
     ]
+
+
+def _flow_without_transitions(n_states):
+    """A flow table of states 1..n_states and no transitions (no routes to place): only the
+    number of states matters to the flip-flop count."""
+    table = SimpleNamespace(state_labels=tuple(range(1, n_states + 1)), n_gates=1)
+    return FlowTable(table, 1, {s: frozenset() for s in table.state_labels},
+                     {s: {} for s in table.state_labels}, ())
+
+
+def test_exactly_two_to_the_max_bits_states_fit_in_max_bits_flip_flops():
+    """MAX_BITS flip-flops hold 2**MAX_BITS codes: that many states are accepted (and use all
+    MAX_BITS flip-flops); one more is refused as needing more than MAX_BITS flip-flops."""
+    result = candidate_assignments(_flow_without_transitions(1 << MAX_BITS), budget=100)
+    assert [bits for bits, _, _ in result.tried] == [MAX_BITS]
+    assert result.candidates and all(a.n_bits == MAX_BITS for a in result.candidates)
+    with pytest.raises(AssignmentError, match=f"{(1 << MAX_BITS) + 1} states need more than {MAX_BITS} flip-flops"):
+        candidate_assignments(_flow_without_transitions((1 << MAX_BITS) + 1), budget=100)
