@@ -9,7 +9,9 @@ each against an expectation worked out by hand or taken from the documentation:
 * ``rtctl leg compile`` exits 0 when the synthesis agrees with its own proof and 1 when the
   circuit disagrees with its automaton, even if the race proof holds;
 * the PLA matrix of a hand-made personality: column names written vertically, bottom-aligned;
-* the flip-flop limit at its boundary: exactly 2**MAX_BITS states are accepted, one more refused.
+* the flip-flop limit at its boundary: exactly 2**MAX_BITS states are accepted, one more refused;
+* the route steps of a hand-made assignment, counted by hand;
+* the "random" synthetic shape: a tour of all n states, then random jumps, 3n rows.
 """
 from types import SimpleNamespace
 
@@ -19,11 +21,12 @@ import pytest
 from rtctl.logic import CircuitModel, compile_table, load_table
 from rtctl.logic import cli
 from rtctl.logic.cli import leg_command
-from rtctl.logic.assign import MAX_BITS, AssignmentError, candidate_assignments
+from rtctl.logic.assign import MAX_BITS, Assignment, AssignmentError, candidate_assignments
 from rtctl.logic.emulate import Emulator
 from rtctl.logic.flow import FlowTable
 from rtctl.logic.pla import Pla
 from rtctl.logic.report import format_compile
+from rtctl.logic.synthetic import state_sequence
 from rtctl.logic.verify import agreement, race_proof
 from rtctl.errors import ConfigError
 
@@ -140,3 +143,19 @@ def test_exactly_two_to_the_max_bits_states_fit_in_max_bits_flip_flops():
     assert result.candidates and all(a.n_bits == MAX_BITS for a in result.candidates)
     with pytest.raises(AssignmentError, match=f"{(1 << MAX_BITS) + 1} states need more than {MAX_BITS} flip-flops"):
         candidate_assignments(_flow_without_transitions((1 << MAX_BITS) + 1), budget=100)
+
+
+def test_assignment_steps_count_one_per_flip_flop_change_on_every_route():
+    """Two transitions: 1 → 2 one step (00 → 01), 2 → 3 through spare code 11 (01 → 11 → 10):
+    1 + 2 = 3 steps; the longest route is 2 steps, so a settle needs 3 passes."""
+    a = Assignment(2, {1: 0b00, 2: 0b01, 3: 0b10}, {(1, 0): (0b00, 0b01), (2, 1): (0b01, 0b11, 0b10)})
+    assert a.steps == 3
+    assert a.settle_passes == 3
+
+
+@pytest.mark.parametrize("n_states", [2, 5, 9])
+def test_a_random_synthetic_sequence_has_3n_rows_starting_with_a_tour(n_states):
+    """The "random" shape: a tour of all n states, then random jumps, 3n rows in all."""
+    rows = state_sequence("random", n_states, seed=3)
+    assert len(rows) == 3 * n_states
+    assert sorted(rows[:n_states]) == list(range(1, n_states + 1))
