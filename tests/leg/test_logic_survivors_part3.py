@@ -11,7 +11,8 @@ each against an expectation worked out by hand or taken from the documentation:
 * the PLA matrix of a hand-made personality: column names written vertically, bottom-aligned;
 * the flip-flop limit at its boundary: exactly 2**MAX_BITS states are accepted, one more refused;
 * the route steps of a hand-made assignment, counted by hand;
-* the "random" synthetic shape: a tour of all n states, then random jumps, 3n rows.
+* the "random" synthetic shape: a tour of all n states, then random jumps, 3n rows;
+* the single-bit-step distance between two codes around used codes, counted by hand.
 """
 from types import SimpleNamespace
 
@@ -21,7 +22,7 @@ import pytest
 from rtctl.logic import CircuitModel, compile_table, load_table
 from rtctl.logic import cli
 from rtctl.logic.cli import leg_command
-from rtctl.logic.assign import MAX_BITS, Assignment, AssignmentError, candidate_assignments
+from rtctl.logic.assign import MAX_BITS, Assignment, AssignmentError, _distance, candidate_assignments
 from rtctl.logic.emulate import Emulator
 from rtctl.logic.flow import FlowTable
 from rtctl.logic.pla import Pla
@@ -159,3 +160,12 @@ def test_a_random_synthetic_sequence_has_3n_rows_starting_with_a_tour(n_states):
     rows = state_sequence("random", n_states, seed=3)
     assert len(rows) == 3 * n_states
     assert sorted(rows[:n_states]) == list(range(1, n_states + 1))
+
+
+def test_distance_counts_single_bit_steps_around_used_codes():
+    """Two flip-flops: 00 → 11 is 2 steps (through 10 when 01 is used); 000 → 111 with 001, 010
+    used goes 000 → 100 → 101 → 111 or 110 → 111: 3 steps; with 100 used too, no way."""
+    assert _distance(0b00, 0b11, 2, used=1 << 0b01) == 2
+    assert _distance(0b000, 0b111, 3, used=1 << 0b001 | 1 << 0b010) == 3
+    assert _distance(0b000, 0b111, 3, used=1 << 0b001 | 1 << 0b010 | 1 << 0b100) is None
+    assert _distance(0b01, 0b01, 2, used=0) == 0
