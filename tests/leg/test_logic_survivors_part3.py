@@ -12,7 +12,8 @@ each against an expectation worked out by hand or taken from the documentation:
 * the flip-flop limit at its boundary: exactly 2**MAX_BITS states are accepted, one more refused;
 * the route steps of a hand-made assignment, counted by hand;
 * the "random" synthetic shape: a tour of all n states, then random jumps, 3n rows;
-* the single-bit-step distance between two codes around used codes, counted by hand.
+* the single-bit-step distance between two codes around used codes, counted by hand;
+* the exact cover's tie-break between covers of as many primes: fewest literals (care bits).
 """
 from types import SimpleNamespace
 
@@ -26,6 +27,7 @@ from rtctl.logic.assign import MAX_BITS, Assignment, AssignmentError, _distance,
 from rtctl.logic.emulate import Emulator
 from rtctl.logic.flow import FlowTable
 from rtctl.logic.pla import Pla
+from rtctl.logic.qm import exact_cover
 from rtctl.logic.report import format_compile
 from rtctl.logic.synthetic import state_sequence
 from rtctl.logic.verify import agreement, race_proof
@@ -169,3 +171,12 @@ def test_distance_counts_single_bit_steps_around_used_codes():
     assert _distance(0b000, 0b111, 3, used=1 << 0b001 | 1 << 0b010) == 3
     assert _distance(0b000, 0b111, 3, used=1 << 0b001 | 1 << 0b010 | 1 << 0b100) is None
     assert _distance(0b01, 0b01, 2, used=0) == 0
+
+
+def test_exact_cover_breaks_a_tie_in_primes_by_fewest_literals():
+    """Minterm 0b0011 is covered by either of two cubes (care, value): (0b1110, 0b0010), 3
+    literals, one of them positive; (0b0011, 0b0011), 2 literals, both positive. One prime
+    either way, so the cover is the one with fewer literals, whichever comes first."""
+    three_literals, two_literals = (0b1110, 0b0010), (0b0011, 0b0011)
+    assert exact_cover([0b0011], [three_literals, two_literals]) == ([two_literals], True)
+    assert exact_cover([0b0011], [two_literals, three_literals]) == ([two_literals], True)
