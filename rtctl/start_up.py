@@ -32,7 +32,7 @@ def bring_up(d, compiling: Precompile, server) -> bool:
     activated: list[str] = []
     with ServedWhileStarting(server):
         for _ in _steps(d, compiling, activated):
-            if d.stop_reason is not None or d.estopped:
+            if _stopping(d):
                 break
         else:
             log.info("started", config=str(d.cfg.file), robot=d.model.name, rate_hz=d.cfg.loop.rate_hz,
@@ -44,6 +44,10 @@ def bring_up(d, compiling: Precompile, server) -> bool:
                          f"operator e-stop during start-up: {', '.join(activated)} disabled again")
     log.info("stopped before start", reason=d.stop_reason, activated=activated)
     return False
+
+
+def _stopping(d) -> bool:
+    return d.stop_reason is not None or d.estopped
 
 
 def _steps(d, compiling: Precompile, activated: list[str]):
@@ -63,7 +67,7 @@ def _steps(d, compiling: Precompile, activated: list[str]):
         np.put(state.position, idx, dev.state.position)
         np.put(state.velocity, idx, dev.state.velocity)
     guarded.check_start(d.cfg, state.position)
-    compiling.wait(stop=lambda: d.stop_reason is not None or d.estopped)
+    compiling.wait(stop=lambda: _stopping(d))
     yield
     compiling.finish()
     yield

@@ -22,7 +22,6 @@ import sys
 import tempfile
 import threading
 import time
-
 from pathlib import Path
 
 import numpy as np
