@@ -113,8 +113,13 @@ def test_a_gain_set_mid_run_changes_the_response_as_the_new_gain_predicts(write_
     assert code == 0, err
     tel = read(telemetry)
     t, e = tel["t"], tel["q"] - tel["q_des"]
-    changed = t[np.flatnonzero(tel["ct.kd"][:, 0] == 80.0)[0]]
-    assert changed == pytest.approx(kd["t"], abs=2e-3) and changed >= 3.7  # where it was asked, recorded
+    first = np.flatnonzero(tel["ct.kd"][:, 0] == 80.0)[0]
+    changed = t[first]
+    # where it was asked, recorded: the last row with the old gain before the reply's time, the first
+    # with the new one at or after it (paced, a writer starved for 2 s on a loaded machine drops rows)
+    assert t[first - 1] <= kd["t"] <= changed and changed >= 3.7, (t[first - 1], changed, kd)
+    if tel["t"].size == round(tel["t"][-1] / 1e-3) + 1:  # no row dropped: the very tick
+        assert changed == pytest.approx(kd["t"], abs=2e-3)
     assert set(tel["ct.kp"][t < 3.7, 0]) == {400.0} and set(tel["ct.kp"][t > changed, 0]) == {1600.0}
     # B → A → B before the set, and the same two segments a whole number of periods later, once the
     # new gains' transient is over (when the set lands depends on the machine: a poll or two after 3.7 s)
