@@ -30,8 +30,8 @@ def bring_up(d, compiling: Precompile, server) -> bool:
     """Configure the devices, prepare the kernels, plan, activate: True when started, False
     when a ``stop`` or an ``estop`` came first (logged with what was enabled by then)."""
     activated: list[str] = []
-    with ServedWhileStarting(server):
-        for _ in _steps(d, compiling, activated):
+    with ServedWhileStarting(server, "configuring the devices") as served:
+        for _ in _steps(d, compiling, activated, served.doing):
             if _stopping(d):
                 break
         else:
@@ -50,10 +50,12 @@ def _stopping(d) -> bool:
     return d.stop_reason is not None or d.estopped
 
 
-def _steps(d, compiling: Precompile, activated: list[str]):
-    """The start, one step per ``yield`` (where :func:`bring_up` looks for a stop)."""
+def _steps(d, compiling: Precompile, activated: list[str], doing):
+    """The start, one step per ``yield`` (where :func:`bring_up` looks for a stop); ``doing``
+    is told each step first (what a request other than stop or estop is answered meanwhile)."""
     yield  # (one may have come while the cached kernels loaded)
     for dev in d.rt.all_devices:
+        doing(f"configuring {dev.name}")
         _call(dev, "configure")
         yield
     state = d.rt.state
@@ -67,10 +69,13 @@ def _steps(d, compiling: Precompile, activated: list[str]):
         np.put(state.position, idx, dev.state.position)
         np.put(state.velocity, idx, dev.state.velocity)
     guarded.check_start(d.cfg, state.position)
+    doing("compiling kernels (a first run)")
     compiling.wait(stop=lambda: _stopping(d))
     yield
+    doing("loading the compiled kernels")
     compiling.finish()
     yield
+    doing("planning the initial trajectory")
     if d.recorder is not None:  # (started long before: it is normally waiting already)
         d.recorder.wait_ready()
     apply_rt_knobs(d)
@@ -81,6 +86,7 @@ def _steps(d, compiling: Precompile, activated: list[str]):
         raise HardwareError(f"cannot start the trajectory from the measured position: {e}") from None
     yield
     for dev in d.rt.all_devices:
+        doing(f"activating {dev.name}")
         _call(dev, "activate", passes=())
         activated.append(dev.name)
         yield

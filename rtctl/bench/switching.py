@@ -38,11 +38,13 @@ def ask(request):
         while len(data) < n:
             data += s.recv(n - len(data))
         return msgpack.unpackb(data)
-while True:
+while True:  # until the loop runs: while the daemon starts, status answers ok: false
     try:
-        ask({"cmd": "status"}); break
+        if ask({"cmd": "status"}).get("ok"):
+            break
     except OSError:
-        time.sleep(0.01)
+        pass
+    time.sleep(0.01)
 requests = [{"cmd": "switch", "activate": ["adaptive"], "estimates": "keep"},
             {"cmd": "switch", "activate": ["ct"], "estimates": "keep"}] if kind == "switch" else \
            [{"cmd": "set", "key": "ct.kp", "value": 400.0}, {"cmd": "set", "key": "adaptive.kd", "value": 40.0}]

@@ -5,7 +5,7 @@ import socket
 
 from rtctl.control_socket.framing import HEADER, decode
 
-_URGENT = frozenset({"stop", "estop"})
+URGENT = frozenset({"stop", "estop"})  # served even past a poll's budget, and while the daemon starts
 
 
 def urgent(body: bytes) -> bool:
@@ -16,7 +16,7 @@ def urgent(body: bytes) -> bool:
         request = decode(body)
     except ValueError:
         return False
-    return isinstance(request, dict) and request.get("cmd") in _URGENT
+    return isinstance(request, dict) and request.get("cmd") in URGENT
 
 
 def first_frame(inbuf: bytearray) -> bytes:

@@ -25,8 +25,10 @@ Robustness: a request above the size limit, a frame cut short (the peer closed, 
 for ``request_timeout`` s mid-frame), malformed msgpack, an unknown command or wrong fields
 get ``{"ok": False, "error": ...}``; the handler is not called and the server keeps serving.
 A handler that raises answers ``ok: False`` too (and is logged): the loop never sees it.
-At exit (``close(stopping=...)``) every request already sent is answered, none reset. With
-``urgent_only`` (the daemon is starting) only stop and estop are served; the rest wait.
+At exit (``close(stopping=...)``) every request already sent is answered, none reset. While
+``starting`` says what the daemon is doing before its loop runs, only stop and estop reach the
+handler; any other request is answered at once that the daemon is starting (``ok: False``, with
+``starting``), so no client waits for a loop that may be many seconds away.
 """
 from __future__ import annotations
 
@@ -38,7 +40,7 @@ import time
 
 import structlog
 
-from rtctl.control_socket.connection import Connection, Deferred, first_frame, frame_waiting, urgent
+from rtctl.control_socket.connection import URGENT, Connection, Deferred, first_frame, frame_waiting, urgent
 from rtctl.control_socket.framing import HEADER, decode, encode
 from rtctl.control_socket.requests import MAX_REQUEST_BYTES, InvalidRequest, validate
 from rtctl.errors import ControlSocketError, RtctlError
@@ -74,7 +76,7 @@ class ControlServer:
         self.request_timeout = request_timeout
         self.idle_timeout = idle_timeout
         self.budget_ns = None if budget_s is None else int(budget_s * 1e9)
-        self.urgent_only = False  # serve stop and estop only; the rest waits (the daemon is starting)
+        self.starting: str | None = None  # what the daemon does before its loop: only stop/estop are handled
         self._serve_until = 0  # this poll's budget ends (monotonic ns)
         self._served = 0  # requests handled in this poll
         self._clients: dict[int, Connection] = {}
@@ -290,7 +292,7 @@ class ControlServer:
             conn.deadline = time.monotonic() + self.request_timeout
             return 0
         body = bytes(conn.inbuf[HEADER.size:HEADER.size + length])
-        if (self.urgent_only or self._over_budget()) and not urgent(body):
+        if self._over_budget() and not urgent(body):
             self._pending.append(fd)  # served first at the next poll (that serves it)
             conn.deadline = float("inf")  # waiting its turn is not stalling mid-frame
             return 0
@@ -320,6 +322,10 @@ class ControlServer:
             request = validate(decode(body), self.n_joints)
         except (InvalidRequest, ValueError) as exc:  # the request's shape: the client's to correct
             return {"ok": False, "error": str(exc), "invalid": True}
+        if self.starting is not None and request["cmd"] not in URGENT:
+            return {"ok": False, "starting": self.starting,
+                    "error": f"the daemon is starting ({self.starting}): only stop and estop are served until its "
+                             f"loop runs; ask again (`status` answers ok once it runs)"}
         try:
             reply = self.handler(request)
         except RtctlError as exc:

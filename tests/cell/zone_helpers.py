@@ -62,10 +62,12 @@ hi = [{hi}, {SHOULDER[1]}]
 
 
 def status(run_dir: Path, robot: str) -> dict | None:
+    """The robot's status, or None while its daemon is away or still starting."""
     try:
-        return request(run_dir / f"{robot}.sock", "status", timeout=2.0)
+        reply = request(run_dir / f"{robot}.sock", "status", timeout=2.0)
     except ControlSocketError:
         return None
+    return None if "starting" in reply else reply
 
 
 def wait_for(predicate, what: str, timeout_s: float, every_s: float = 0.05):

@@ -345,3 +345,20 @@ def test_requests_held_for_later_polls_are_served_though_their_clients_half_clos
         assert [read_reply(s) for s in clients] == [{"ok": True, "seen": "status"}] * 3
     finally:
         server.close()
+
+
+def test_while_the_daemon_starts_only_stop_and_estop_reach_the_handler(loop, sock_path):
+    """``starting`` set: a status, a move or a get is answered at once that the daemon is starting
+    and what it does, without the handler (the loop that owns it is not running); stop and estop
+    are handled. Cleared: everything reaches the handler again."""
+    loop.server.starting = "configuring drive1"
+    for cmd, fields in (("status", {}), ("move", {"q": [0.0] * 6}), ("get", {"key": "safety.margin"})):
+        reply = request(sock_path, cmd, timeout=2.0, **fields)
+        assert not reply["ok"] and reply["starting"] == "configuring drive1", reply
+        assert "starting (configuring drive1)" in reply["error"] and "stop and estop" in reply["error"]
+    assert loop.calls == []
+    for cmd in ("stop", "estop"):
+        assert request(sock_path, cmd, timeout=2.0)["ok"] is not False
+    assert [c["cmd"] for c in loop.calls] == ["stop", "estop"]
+    loop.server.starting = None
+    assert request(sock_path, "status", timeout=2.0)["state"] == "running"

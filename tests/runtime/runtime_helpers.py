@@ -66,8 +66,8 @@ class Daemon:
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
 
     def wait_ready(self, timeout=60.0):
-        """Until the loop answers ``status``: the socket exists before the loop runs (the
-        kernels may still be compiling), and a request then waits for the first tick."""
+        """Until the loop answers ``status`` ok: the socket exists before the loop runs (the
+        kernels may still be compiling), and a status then is answered "starting"."""
         end = time.monotonic() + timeout
         while time.monotonic() < end:
             if self.socket.exists() and self.proc.poll() is None and self._answers():
@@ -84,7 +84,17 @@ class Daemon:
                 s.connect(str(self.socket))
                 body = msgpack.packb({"cmd": "status"})
                 s.sendall(struct.pack(">I", len(body)) + body)
-                return len(s.recv(4)) == 4
+                head = s.recv(4)
+                if len(head) < 4:
+                    return False
+                (n,) = struct.unpack(">I", head)
+                body = b""
+                while len(body) < n:
+                    chunk = s.recv(n - len(body))
+                    if not chunk:
+                        return False
+                    body += chunk
+                return bool(msgpack.unpackb(body).get("ok"))
         except OSError:
             return False
 

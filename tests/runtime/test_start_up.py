@@ -73,3 +73,47 @@ def test_a_stop_during_a_start_up_step_is_answered_then_and_ends_the_start(write
     assert not d.running  # the loop never started
     assert ("activate called" in calls) == (step == "activate"), calls  # no step after the stop
     assert sim.lifecycle.value != "active", sim.lifecycle  # (closed: the clean-up disabled what was enabled)
+
+
+@pytest.mark.parametrize("step, doing", [
+    ("warm_up", "loading the compiled kernels"),
+    ("configure", "configuring sim"),
+    ("activate", "activating sim"),
+])
+def test_a_status_during_a_start_up_step_is_answered_then_with_what_the_daemon_does(write_config, tmp_path, step,
+                                                                                     doing):
+    """Not held for the loop: a status (or a move) sent while a step runs is answered while it
+    runs — not ok, the daemon is starting, and the step it is in — and the start goes on."""
+    cfg = load_config(write_config(BASE))
+    args = SimpleNamespace(telemetry=None, socket=str(tmp_path / "s.sock"), enforce_rt=False, duration=3600.0,
+                           summary=None, log_level="error")
+    d = Daemon(cfg, build(cfg), args)
+    (sim,) = d.rt.all_devices
+    replied, calls, seen = threading.Event(), [], {}
+    setattr(sim, step, _blocking(getattr(sim, step), replied, calls))
+
+    def operator():
+        end = time.monotonic() + 60
+        while step not in calls and time.monotonic() < end:  # the step is running (blocked)
+            time.sleep(0.005)
+        try:
+            seen["status"] = request(args.socket, "status", timeout=10.0)
+            seen["move"] = request(args.socket, "move", timeout=10.0, q=[0.0] * d.model.nq)
+        finally:
+            replied.set()
+        while not d.running and time.monotonic() < end:
+            time.sleep(0.005)
+        seen["running"] = request(args.socket, "status", timeout=10.0)
+        request(args.socket, "stop", timeout=10.0)
+
+    thread = threading.Thread(target=operator)
+    thread.start()
+    try:
+        code_seen = d.run()
+    finally:
+        replied.set()
+        thread.join()
+    for name in ("status", "move"):
+        assert not seen[name]["ok"] and seen[name]["starting"] == doing, seen
+    assert seen["running"]["ok"] and "starting" not in seen["running"], seen
+    assert code_seen == 0 and d.stop_reason == "stop requested"
