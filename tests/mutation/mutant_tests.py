@@ -11,6 +11,11 @@ executed the mutated lines run, in the suite's order; where coverage cannot tell
 
 ``MUTATION_MODE=full`` (the second pass, for every survivor of the first): the target's full
 tests from an empty cache, as a run without this tool would do. A survivor counts only here.
+
+A mutant's tests get :func:`time_limit` of the unmutated run's time (which ran them all, from
+an empty cache, under coverage): a mutant that loops forever is a time-out after about two
+minutes instead of cosmic-ray's per-target limit of four to ten. The whole process group is
+killed (tests start daemons) and the run counts as a time-out, as cosmic-ray's own would.
 """
 from __future__ import annotations
 
@@ -18,6 +23,7 @@ import hashlib
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -37,6 +43,25 @@ def digest(path: Path) -> str:
 
 
 TOOL_ERROR = "MUTATION-TOOL-ERROR"  # (run.py stops on it: a crash of this tool must not count as a kill)
+TIMED_OUT = "MUTATION-TIMED-OUT"  # (run.py counts it as a time-out, not as a kill by a test)
+
+
+def time_limit(baseline_s: float) -> float:
+    """How long a mutant's tests may take: three times the unmutated run, and a minute more for a
+    machine busier than it was then."""
+    return 3.0 * baseline_s + 60.0
+
+
+def run_tests(argv: list[str], limit_s: float) -> int:
+    """pytest's exit status; at ``limit_s`` its process group is killed and it is a time-out (1)."""
+    proc = subprocess.Popen(argv, start_new_session=True)
+    try:
+        return proc.wait(timeout=limit_s)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+        print(f"{TIMED_OUT}: the tests ran past {limit_s:.0f} s", flush=True)
+        return 1
 
 
 def link_warm(warm: Path, dest: Path) -> None:
@@ -75,10 +100,11 @@ def run() -> int:
     argv = PYTEST + (selected if selected is not None else state["tests"].split())
     print(f"mutant in {rel}: {'all' if selected is None else len(selected)} tests, "
           f"{'warm' if warm else 'empty'} kernel cache ({'full' if full else 'fast'} pass)", flush=True)
-    rc = subprocess.run(argv).returncode
+    limit = time_limit(state["seconds"])
+    rc = run_tests(argv, limit)
     if selected is not None and rc in (4, 5):  # (a test id pytest could not find again: all of them)
         selected = None
-        rc = subprocess.run(PYTEST + state["tests"].split()).returncode
+        rc = run_tests(PYTEST + state["tests"].split(), limit)
     with open(HERE / "log.jsonl", "a") as log:
         log.write(json.dumps({"file": rel, "pass": "full" if full else "fast", "warm": warm,
                               "tests": None if selected is None else len(selected), "rc": rc,

@@ -50,7 +50,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from mutant_tests import TOOL_ERROR  # what the test command prints when it fails itself (this script's folder)
+from mutant_tests import TIMED_OUT, TOOL_ERROR  # what the test command prints (this script's folder)
 
 ROOT = Path(__file__).resolve().parents[2]
 CR = [sys.executable, "-m", "cosmic_ray.cli"]
@@ -212,6 +212,7 @@ def prepare(name: str, tree: Path, tests: str) -> None:
     baseline = subprocess.run(PYTEST.split() + [f"--cov-config={tools / 'coveragerc'}", "--cov", "--cov-context=test",
                                                 "--cov-report="] + tests.split(),
                               cwd=tree, env=env, capture_output=True, text=True)
+    baseline_s = time.monotonic() - started
     if baseline.returncode != 0 or not order:
         raise SystemExit(f"{name}: the tests fail without any mutant:\n{baseline.stdout[-3000:]}")
     kernels = list((tree / ".numba").glob("rtctl-kernels-*"))
@@ -226,7 +227,8 @@ def prepare(name: str, tree: Path, tests: str) -> None:
     shutil.rmtree(tree / ".numba", ignore_errors=True)
     covered = lines_to_tests(tools / "coverage", tree, files, order)
     closure = kernel_closure(tree)
-    state = {"tests": tests, "files": {rel: hashlib.sha256((tree / rel).read_bytes()).hexdigest() for rel in files},
+    state = {"tests": tests, "seconds": round(baseline_s, 1),
+             "files": {rel: hashlib.sha256((tree / rel).read_bytes()).hexdigest() for rel in files},
              "closure": sorted(set(files) & closure), "warm": warm, "order": order, "covered": covered}
     (tools / "baseline.json").write_text(json.dumps(state))
     print(f"{name}: unmutated run under coverage {time.monotonic() - started:.0f} s, {len(order)} tests; "
@@ -337,7 +339,8 @@ def report(name: str, tree: Path, db: Path) -> dict:
                 m = item.mutations[0]
                 survivors.append({"file": str(Path(m.module_path).relative_to(tree)), "line": m.start_pos[0],
                                   "operator": m.operator_name.rsplit("/", 1)[-1], "diff": result.diff})
-            elif result.worker_outcome == WorkerOutcome.ABNORMAL or result.output == "timeout":  # cosmic-ray's word
+            elif (result.worker_outcome == WorkerOutcome.ABNORMAL or result.output == "timeout"  # cosmic-ray's word
+                  or TIMED_OUT in (result.output or "")):  # the test command's own limit
                 timeouts += 1
             else:
                 killed += 1

@@ -7,11 +7,12 @@ import os
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import pytest
 
-from mutant_tests import link_warm
+from mutant_tests import TIMED_OUT, link_warm, run_tests
 from selection import changed_lines, kernel_closure, line_kinds, select_tests, lines_to_tests
 
 
@@ -161,3 +162,19 @@ def test_warm_kernels_are_linked_and_numba_never_writes_through_a_link(tmp_path)
     assert {p.relative_to(warm): p.read_bytes() for p in warm.rglob("*") if p.is_file()} == before
     index = next(p for p in linked.rglob("*.nbi"))
     assert not os.path.samefile(index, warm / index.relative_to(linked))
+
+
+def test_tests_past_their_time_limit_are_a_time_out_and_leave_no_process_behind(tmp_path, capfd):
+    """A "test run" that starts a child of its own and then hangs: at the limit both are killed
+    (the whole process group) and the run is a time-out, rc 1; one within it keeps its status."""
+    pid_file = tmp_path / "child.pid"
+    hang = ("import subprocess, sys, time; p = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(60)']); "
+            f"open({str(pid_file)!r}, 'w').write(str(p.pid)); time.sleep(60)")
+    assert run_tests([sys.executable, "-c", hang], limit_s=2.0) == 1
+    assert TIMED_OUT in capfd.readouterr().out
+    child = int(pid_file.read_text())
+    with pytest.raises(ProcessLookupError):  # (killed with the group; the parent reaped it or init did)
+        for _ in range(100):
+            os.kill(child, 0)
+            time.sleep(0.05)
+    assert run_tests([sys.executable, "-c", "import sys; sys.exit(3)"], limit_s=30.0) == 3
