@@ -70,7 +70,7 @@ def bench_control_socket(polls: int = 20000, requests: int = 500) -> dict:
 
 def _time_stops_while_starting(directory: str, runs: int = 8, config: str = "puma560_cstar_sim.toml") -> dict:
     path = Path(__file__).resolve().parents[2] / "configs" / config
-    ms, started = [], 0
+    ms, status_ms, answered_starting, started = [], [], 0, 0
     for k in range(runs):
         sock = os.path.join(directory, f"start{k}.sock")
         proc = subprocess.Popen([sys.executable, "-m", "rtctl.cli", "run", str(path), "--socket", sock, "--duration",
@@ -80,6 +80,9 @@ def _time_stops_while_starting(directory: str, runs: int = 8, config: str = "pum
                 time.sleep(0.001)
             time.sleep(0.1 * k)  # a later moment of the start each time (it takes about a second)
             a = time.perf_counter()
+            answered_starting += "starting" in request(sock, "status", timeout=10.0)
+            status_ms.append((time.perf_counter() - a) * 1e3)
+            a = time.perf_counter()
             request(sock, "stop", timeout=10.0)
             ms.append((time.perf_counter() - a) * 1e3)
             out, _ = proc.communicate(timeout=120)
@@ -88,7 +91,9 @@ def _time_stops_while_starting(directory: str, runs: int = 8, config: str = "pum
             proc.kill()
             proc.wait()
     return {"median_ms": float(np.median(ms)), "p90_ms": float(np.percentile(ms, 90)), "max_ms": max(ms),
-            "runs": runs, "loop_started": started}
+            "runs": runs, "loop_started": started,
+            "status": {"median_ms": float(np.median(status_ms)), "p90_ms": float(np.percentile(status_ms, 90)),
+                       "max_ms": max(status_ms), "answered_starting": answered_starting}}
 
 
 def _time_clients(server: ControlServer, runs: int = 20) -> dict:
@@ -150,4 +155,7 @@ def format_table(result: dict) -> str:
     c = result["stop_while_starting"]
     lines.append(f"{'stop while the daemon starts, ms':<34}{c['median_ms']:>9.1f}{c['p90_ms']:>9.1f}{c['max_ms']:>10.1f}"
                  f"   (round trip; the loop started in {c['loop_started']} of {c['runs']} runs)")
+    st = c["status"]
+    lines.append(f"{'status while the daemon starts, ms':<34}{st['median_ms']:>9.1f}{st['p90_ms']:>9.1f}"
+                 f"{st['max_ms']:>10.1f}   (sent just before the stop; {st['answered_starting']} answered \"starting\")")
     return "\n".join(lines)
