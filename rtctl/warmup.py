@@ -72,18 +72,24 @@ class Precompile:
         self.started = self.last_line = time.monotonic()  # when it last logged
         self._beat: tuple[threading.Thread, threading.Event] | None = None
 
-    def start(self, loading: contextlib.AbstractContextManager | None = None) -> "Precompile":
+    def start(self, loading: contextlib.AbstractContextManager | None = None,
+              stop: Callable[[], bool] = lambda: False) -> "Precompile":
         """Load what is cached here, then fork the workers for the rest. ``loading`` is
         entered while the kernels load and left before any fork (the daemon serves its socket
-        from a thread meanwhile: a fork must not copy a thread's locks)."""
+        from a thread meanwhile: a fork must not copy a thread's locks). ``stop()`` is asked
+        after each group: once true, nothing more loads and no worker is forked."""
         with loading or contextlib.nullcontext():
             self._start_heartbeat()
             try:
-                self._probe()
+                self._probe(stop)
             finally:
                 self._stop_heartbeat()
         if self.loaded == len(self.groups):
             log.info("kernels loaded", seconds=round(time.monotonic() - self.started, 2), compiled=0)
+            return self
+        if stop():
+            log.info("kernels not prepared", reason="a stop came while they loaded",
+                     left=[name for name, _ in self.groups[self.loaded:]])
             return self
         self.queue = list(range(self.loaded, len(self.groups)))
         self.pending = {self.groups[i][0] for i in self.queue}
@@ -101,8 +107,9 @@ class Precompile:
             self._start_heartbeat()  # the threads come after the forks
         return self
 
-    def _probe(self) -> None:
-        """Run the groups here while numba finds them in its cache; stop at the first miss."""
+    def _probe(self, stop: Callable[[], bool]) -> None:
+        """Run the groups here while numba finds them in its cache; stop at the first miss, or
+        when ``stop()``."""
         from numba.core.event import Listener, install_listener
 
         class Miss(Listener):
@@ -114,6 +121,8 @@ class Precompile:
 
         with install_listener("numba:compile", Miss()):
             for name, fn in self.groups:
+                if stop():
+                    return
                 self.current = name
                 try:
                     fn()

@@ -43,12 +43,26 @@ SCENARIO = textwrap.dedent("""
             self.thread.join()
             print("LOADING LEFT", flush=True)
 
+    stopped = []
+
+    def stop_now():  # a stop that comes while the first group loads
+        stopped.append(True)
+        k.add_once()
+
+    def asked():
+        print("STOP ASKED", flush=True)
+        return bool(stopped)
+
     groups = {{"ok": [("add", k.add_once), ("mul", k.mul_once)],
                "served": [("add", k.add_once), ("mul", k.mul_once)],
+               "stopped": [("stop", stop_now), ("mul", k.mul_once)],
                "slow": [("slow", slow)],
                "fails": [("add", k.add_once), ("broken", fails)]}}[sys.argv[1]]
-    p = Precompile(groups).start(loading=Loading() if sys.argv[1] == "served" else None)
+    p = Precompile(groups).start(loading=Loading() if sys.argv[1] == "served" else None, stop=asked)
     print("WORKERS", len(p.workers), flush=True)
+    if sys.argv[1] == "stopped":
+        print("LOADED", p.loaded, flush=True)
+        sys.exit(0)
     assert p.wait()
     try:
         p.finish()
@@ -129,3 +143,19 @@ def test_the_loading_context_is_left_before_the_workers_fork(tmp_path):
     assert "LOADING LEFT" in plain
     (preparing,) = _named(events, "preparing kernels")
     assert preparing["workers"] >= 1, preparing  # the thread was joined before the fork
+
+
+def test_a_stop_while_kernels_load_forks_no_worker_and_loads_nothing_more(tmp_path):
+    """A stop that comes while a group loads (here: the group itself asks for it): the next
+    group is neither loaded nor handed to a forked worker — the start is over anyway."""
+    events, plain = _run(tmp_path, "stopped")
+    assert "WORKERS 0" in plain and "LOADED 0" in plain, plain  # (its first group missed the cold cache)
+    assert not _named(events, "preparing kernels")
+    (left,) = _named(events, "kernels not prepared")
+    assert left["left"] == ["stop", "mul"], left
+
+    _run(tmp_path, "ok")  # a warm cache: the first group loads, and the stop ends the loading there
+    events, plain = _run(tmp_path, "stopped")
+    assert "WORKERS 0" in plain and "LOADED 1" in plain, plain
+    (left,) = _named(events, "kernels not prepared")
+    assert left["left"] == ["mul"], left
