@@ -20,13 +20,26 @@ import numpy as np
 SCREEN = 512  # pixels across the full picture at the finest density
 
 
+def _unit(v: np.ndarray) -> np.ndarray | None:
+    """v / |v|, scaled first so that no square overflows (a camera 1e300 m away still has a
+    line of sight); None for a zero or non-finite v."""
+    scale = np.abs(v).max()
+    if not (scale > 0 and np.isfinite(scale)):
+        return None
+    v = v / scale
+    return v / np.linalg.norm(v)
+
+
 def look_at(position, target, up=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
     """(R, t) of a camera at ``position`` looking at ``target`` with ``up`` up in the image."""
     position, target, up = (np.asarray(x, dtype=float) for x in (position, target, up))
-    z = target - position
-    if not np.linalg.norm(z) > 0:
-        raise ValueError("the camera must look at a point other than its own position")
-    z /= np.linalg.norm(z)
+    with np.errstate(over="ignore"):  # (an infinite difference is refused just below)
+        z = _unit(target - position)
+    if z is None:
+        raise ValueError("the camera must look at a finite point other than its own position")
+    up = _unit(up)
+    if up is None:
+        raise ValueError("the up direction must be a finite, non-zero vector")
     x = np.cross(z, up)  # image right; v (down) = z × x
     if not np.linalg.norm(x) > 1e-9:
         raise ValueError("the up direction must not be along the line of sight")

@@ -124,3 +124,23 @@ def test_pinhole_projection_by_hand():
     assert np.isnan(cam.project(np.array([3.0, 0.0, 0.0]))).all()  # behind the camera
     np.testing.assert_allclose(Camera.to_screen(Camera.to_grid([100.0, 7.25], 128), 128), [100.0, 7.25])
     np.testing.assert_allclose(Camera.to_grid([1.5, 3.5], 128), [0.0, 0.5])  # grid pixel 0 spans screen 0..3
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e300])
+def test_a_camera_far_away_or_with_a_huge_up_vector_is_still_a_rotation_looking_at_its_target(scale):
+    """Only directions matter for the orientation. A camera ``scale`` m out along −x looking at the
+    origin with up = scale·z, by hand: line of sight z = +x, image right = z × up = (1, 0, 0) ×
+    (0, 0, 1) = (0, −1, 0), image down = z × right = (0, 0, −1): those are R's rows, whatever the
+    scale. The target projects to the principal point; nothing overflows on the way (numpy's
+    floating-point warnings are errors here)."""
+    with np.errstate(all="raise"):
+        cam = Camera.looking_at((-scale, 0.0, 0.0), (0.0, 0.0, 0.0), up=(0.0, 0.0, scale))
+        assert np.array_equal(cam.R, [[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
+        assert np.allclose(cam.project(np.zeros(3)), cam.principal)
+
+
+def test_a_zero_or_unbounded_direction_is_refused_with_what_is_wrong():
+    with pytest.raises(ValueError, match="up direction must be a finite, non-zero vector"):
+        Camera.looking_at((1.0, 0.0, 0.0), (0.0, 0.0, 0.0), up=(0.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match="finite point other than its own position"):
+        Camera.looking_at((-1e308, 0.0, 0.0), (1e308, 0.0, 0.0))  # (the line of sight overflows)
