@@ -1,8 +1,10 @@
 """Tests for guard mutants that survived the full run's fast pass (docs/testing.md), each against
 the documentation or a value worked out by hand: impedance mode's desired velocity (only its
 inward component is removed), the trajectory certificate exactly at its documented bound, the
-smooth route's fallback reported as not smooth, a scene without joints, and a polygon's shape
-in its plane with the joints in the other order."""
+smooth route's fallback reported as not smooth, a scene without joints or with limits of
+unequal lengths, a polygon's shape in its plane with the joints in the other order and a box's
+with a joint outside the plane, the visibility route's direct edge far from the origin, a
+route's legs chained from waypoint to waypoint, and ``retarget_around``'s keyword-only options."""
 from __future__ import annotations
 
 import numpy as np
@@ -84,3 +86,56 @@ def test_a_polygons_shape_in_its_plane_with_the_joints_swapped_is_its_mirror_ima
     swapped = scene.inflated_shape(0, (1, 0), 0.0, bounds)
     assert same.equals(shapely.Polygon(triangle))
     assert swapped.equals(shapely.Polygon([[y, x] for x, y in triangle]))
+
+
+def test_the_visibility_route_beside_an_obstacle_is_the_segment_wherever_the_points_are():
+    """Two points right of the box [2, 3]² that see each other, far from the origin: the straight
+    segment (0.8 long) beats any way round the corners (about 3), so the path is [a, b] — the
+    direct edge weighs |b − a|, the points' distance, not a length that grows with where they are."""
+    from rtctl.guard.visibility import VisibilityMap
+
+    m = VisibilityMap([shapely.box(2.0, 2.0, 3.0, 3.0)], (0.0, 0.0, 10.0, 10.0))
+    a, b = np.array([4.0, 2.1]), np.array([4.0, 2.9])
+    path = m.shortest_path(a, b, lambda p, q: True)
+    assert path is not None and np.array_equal(path, [a, b]), path
+
+
+def test_each_leg_of_a_route_starts_where_the_previous_one_ended():
+    """``plan_route``: start → waypoints[0] → waypoints[1], each leg from the previous point. By
+    hand: the box [−0.5, 0.5]² blocks the line from the start (−2, 0) to the second waypoint
+    (2, 0), but not the legs (−2, 0) → (0, 2) (on y = x + 2, the nearest corner (−0.5, 0.5) is
+    0.71 away) and (0, 2) → (2, 0) (on x + y = 2, the corner (0.5, 0.5) is 0.71 away), both
+    more than the margin 0.1: the route is the three points, straight legs."""
+    from rtctl.guard.motion import plan_route
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0], margin=0.1)
+    route = plan_route(scene, [-2.0, 0.0], [[0.0, 2.0], [2.0, 0.0]])
+    assert [leg.path[0].tolist() for leg in route.legs] == [[-2.0, 0.0], [0.0, 2.0]]
+    assert route.points.tolist() == [[-2.0, 0.0], [0.0, 2.0], [2.0, 0.0]]
+
+
+def test_a_box_on_a_joint_outside_the_plane_has_no_shape_there():
+    """``inflated_shape`` of a box over joints (0, 2) asked in the plane (0, 1): joint 2 is not
+    in it, which is refused naming the joint — not drawn as some band."""
+    scene = Scene([Zone("b", [Box((0, 2), [1.0, 1.0], [2.0, 2.0])])], [-3.0] * 3, [3.0] * 3)
+    with pytest.raises(ValueError, match="joint 2 outside the plane"):
+        scene.inflated_shape(0, (0, 1), 0.0, (-3.0, -3.0, 3.0, 3.0))
+
+
+def test_a_scene_with_as_many_upper_as_lower_limits_only():
+    """"q_min < q_max, one per joint": two lower limits and one upper limit is refused with that
+    message (broadcasting the one upper limit to both joints would accept it)."""
+    with pytest.raises(ValueError, match="q_min < q_max, one per joint"):
+        Scene([], [0.0, 0.0], [1.0])
+
+
+def test_retarget_arounds_options_are_keyword_only():
+    """The signature's ``*``: duration, resolution and the rest are named, never positional
+    (a positional 8th argument is a TypeError, not a duration)."""
+    import inspect
+
+    from rtctl.guard.motion import retarget_around
+
+    params = inspect.signature(retarget_around).parameters
+    assert [p for p in params if params[p].kind is inspect.Parameter.KEYWORD_ONLY] == \
+        ["duration", "resolution", "max_nodes", "deg"]
