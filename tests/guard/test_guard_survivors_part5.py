@@ -4,7 +4,11 @@ inward component is removed), the trajectory certificate exactly at its document
 smooth route's fallback reported as not smooth, a scene without joints or with limits of
 unequal lengths, a polygon's shape in its plane with the joints in the other order and a box's
 with a joint outside the plane, the visibility route's direct edge far from the origin, a
-route's legs chained from waypoint to waypoint, and ``retarget_around``'s keyword-only options."""
+route's legs chained from waypoint to waypoint, ``retarget_around``'s keyword-only options, an
+episode's end after exactly QUIET_TICKS clear ticks, a stop's own reason within a clamp episode,
+the shortcut keeping the start, ``clearance`` without pieces, ``prepare`` building the visibility
+graph, plan bounds around unbounded joints' zones, a limit violation naming its joint, a frozen
+zone, and a polygon flat for its size."""
 from __future__ import annotations
 
 import numpy as np
@@ -139,3 +143,113 @@ def test_retarget_arounds_options_are_keyword_only():
     params = inspect.signature(retarget_around).parameters
     assert [p for p in params if params[p].kind is inspect.Parameter.KEYWORD_ONLY] == \
         ["duration", "resolution", "max_nodes", "deg"]
+
+
+def _box_guard(**kw):
+    from rtctl.guard import RuntimeGuard
+    from rtctl.hal.joints import JointCommand, JointState
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0], margin=0.1)
+    return RuntimeGuard(scene, np.array([10.0, 20.0]), 0.001, margin=0.02, **kw), JointState(2), JointCommand(2)
+
+
+@pytest.mark.parametrize("quiet, new_episode", [(100, True), (99, False)])
+def test_an_episode_ends_after_exactly_quiet_ticks_without_a_violation(quiet, new_episode):
+    """rtctl.guard.runtime's doc: "an episode ends after QUIET_TICKS (100) ticks without a
+    violation" — a violation after 100 clear ticks starts a new one (its event is due), after
+    99 it is the same episode."""
+    from rtctl.guard.runtime import QUIET_TICKS
+
+    assert QUIET_TICKS == 100  # (docs/interference_guard.md says 100)
+    g, state, command = _box_guard()
+    state.position[:] = [-0.51, 0.0]  # at rest inside the band: a violation
+    g.check(0.0, state, command)
+    assert g.event_due
+    state.position[:] = [-2.0, 0.0]
+    for k in range(quiet):
+        g.check(0.001 * (k + 1), state, command)
+    state.position[:] = [-0.51, 0.0]
+    g.check(0.001 * (quiet + 1), state, command)
+    assert g.event_due == new_episode
+
+
+def test_a_stop_within_a_clamp_episode_gives_its_own_reason():
+    """Clamp mode: a stopping path in the outer half of the guard margin (0.02) is clamped, one in
+    the inner half stops. At rest at x0 = −0.515 (0.005 into the band): clamped, the episode's
+    event. Next tick at −0.505 (0.015 in): a stop — within the same episode, yet the reason the
+    safety stage latches names where the robot is now."""
+    from rtctl.safety import GuardVerdict
+
+    g, state, command = _box_guard(action="clamp")
+    state.position[:] = [-0.515, 0.0]
+    assert g.check(0.0, state, command) == GuardVerdict.MODIFIED and g.event_due
+    state.position[:] = [-0.505, 0.0]
+    assert g.check(0.001, state, command) == GuardVerdict.STOP and not g.event_due
+    assert "q = [-0.505, 0]" in g.reason, g.reason
+
+
+def test_shortcut_keeps_the_start():
+    """``shortcut``: "from each kept point, jump to the farthest later point in sight" — starting
+    at the first point, which is always kept: with every segment free, [p0, p1, p2] → [p0, p2]."""
+    from rtctl.guard.grid import shortcut
+
+    points = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]]
+    assert shortcut(points, lambda a, b: True).tolist() == [[0.0, 0.0], [1.0, 1.0]]
+
+
+def test_clearance_without_pieces_is_infinite_and_names_no_piece():
+    """The kernel's docstring: "+inf and -1 without pieces"."""
+    from rtctl.guard.kernels import clearance
+
+    scene = Scene([], [-1.0, -1.0], [1.0, 1.0])
+    assert clearance(*scene.tables(), np.zeros(2)) == (np.inf, -1)
+
+
+def test_prepare_builds_the_visibility_graph_of_a_two_joint_group_ahead_of_the_first_move():
+    """``prepare``'s docstring: it builds the visibility graphs a plan will need — two-joint
+    groups within finite limits — so that a first ``move`` does not build one on the loop."""
+    from rtctl.guard import planner
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0], margin=0.1)
+    planner.prepare(scene)
+    assert len(planner._MAPS.get(scene, {})) == 1
+
+
+def test_unbounded_joints_get_plan_bounds_around_the_points_and_the_zones():
+    """``_bounds``' docstring: limits made finite "around the points and zones". By hand, joint 0
+    with q0 = 0, q1 = 1 and a box over [3, 4]: values 0, 1, 3, 4 span 4, padded by 4 → [−4, 8];
+    joint 1, box over [−1, 1] and points at 0: span 2 → [−3, 3]."""
+    from rtctl.guard.planner import _bounds
+
+    scene = Scene([Zone("box", [Box((0, 1), [3.0, -1.0], [4.0, 1.0])])], [-np.inf, -np.inf], [np.inf, np.inf])
+    lo, hi = _bounds(scene, np.array([0, 1]), np.array([0.0, 0.0]), np.array([1.0, 0.0]))
+    assert lo.tolist() == [-4.0, -3.0] and hi.tolist() == [8.0, 3.0]
+
+
+def test_a_trajectory_leaving_one_joints_limit_names_that_joint():
+    """``trajectory_violation``: the first sample past a limit is reported as "<joint> limit"."""
+    from rtctl.trajectory import JointLimits
+    from rtctl.trajectory.planning import point_to_point
+
+    scene = Scene([], [-1.0, -1.0], [1.0, 1.0], joint_names=("waist", "shoulder"))
+    trajectory = point_to_point([0.0, 0.0], [0.0, 1.5], JointLimits([1.0, 1.0], [2.0, 2.0]))
+    bad = trajectory_violation(scene, trajectory, 0.0, [1.0, 1.0])
+    assert bad is not None and bad.what == "shoulder limit"
+
+
+def test_a_zone_is_immutable():
+    """A zone is shared by the scene's tables and the plans made from them: frozen, as declared."""
+    import dataclasses
+
+    zone = Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        zone.name = "other"
+
+
+def test_a_triangle_flat_for_its_size_has_no_area():
+    """The polygon's degeneracy test is relative to its size (area against scale²): a triangle
+    1000 rad long and 10⁻⁹ high (area 5·10⁻⁷, scale 2000: below 10⁻¹²·scale² = 4·10⁻⁶) is
+    refused; the same shape 1000 times smaller in both directions — not flat — is accepted."""
+    with pytest.raises(ValueError, match="no area"):
+        Polygon((0, 1), [[0.0, 0.0], [1000.0, 0.0], [500.0, 1e-9]])
+    Polygon((0, 1), [[0.0, 0.0], [1.0, 0.0], [0.5, 1e-3]])
