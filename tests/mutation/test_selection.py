@@ -178,3 +178,15 @@ def test_tests_past_their_time_limit_are_a_time_out_and_leave_no_process_behind(
             os.kill(child, 0)
             time.sleep(0.05)
     assert run_tests([sys.executable, "-c", "import sys; sys.exit(3)"], limit_s=30.0) == 3
+
+
+def test_a_targets_test_arguments_keep_their_options_and_lose_only_missing_files(tmp_path):
+    """A run resumed after a test file moved drops that file, and nothing else: an option such
+    as ``--deselect FILE`` keeps its value (dropping ``--deselect`` alone would turn the file it
+    names into one more test to run)."""
+    from run import existing_tests
+
+    write(tmp_path, {"tests/a/test_x.py": "", "tests/a/test_slow.py": ""})
+    words = ["tests/a", "--deselect", "tests/a/test_slow.py", "tests/gone.py", "tests/a/test_x.py::test_one"]
+    assert existing_tests(words, tmp_path) == ["tests/a", "--deselect", "tests/a/test_slow.py",
+                                               "tests/a/test_x.py::test_one"]
