@@ -7,8 +7,9 @@ with a joint outside the plane, the visibility route's direct edge far from the 
 route's legs chained from waypoint to waypoint, ``retarget_around``'s keyword-only options, an
 episode's end after exactly QUIET_TICKS clear ticks, a stop's own reason within a clamp episode,
 the shortcut keeping the start, ``clearance`` without pieces, ``prepare`` building the visibility
-graph, plan bounds around unbounded joints' zones, a limit violation naming its joint, a frozen
-zone, and a polygon flat for its size."""
+graph, plan bounds around unbounded joints' zones, a limit violation naming its joint, frozen
+zones and plans, a polygon flat for its size, A* from a blocked start, a smooth route that
+keeps half the margin staying smooth, and a guarded move from a moving state."""
 from __future__ import annotations
 
 import numpy as np
@@ -253,3 +254,69 @@ def test_a_triangle_flat_for_its_size_has_no_area():
     with pytest.raises(ValueError, match="no area"):
         Polygon((0, 1), [[0.0, 0.0], [1000.0, 0.0], [500.0, 1e-9]])
     Polygon((0, 1), [[0.0, 0.0], [1.0, 0.0], [0.5, 1e-3]])
+
+
+def test_astar_from_a_blocked_start_expands_nothing():
+    """``astar``: (None, expansions) when there is no path; from a start inside a zone no node
+    is expanded at all."""
+    from rtctl.guard.grid import Grid, astar
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0], margin=0.1)
+    grid = Grid(scene.tables(), np.array([0.0, 0.0]), np.array([2.0, 2.0]), np.array([0, 1]), 0.1, scene.margin,
+                [-3.0, -3.0], [3.0, 3.0])
+    assert astar(grid) == (None, 0)
+
+
+def _min_depth(scene, trajectory, samples=20001):
+    from rtctl.guard.feasibility import positions
+    from rtctl.guard.kernels import clearances
+
+    Q = positions(trajectory, np.linspace(trajectory.t_start, trajectory.t_end, samples))
+    depth = np.empty(len(Q))
+    clearances(*scene.tables(), Q, depth)
+    return depth.min()
+
+
+def test_a_smooth_route_that_keeps_half_the_margin_stays_smooth():
+    """rtctl.guard.motion's doc: a smooth trajectory is kept when it stays at least half the
+    margin from every zone. Around the box [−0.5, 0.5]² with margin 0.1 the smooth trajectory
+    keeps at least 0.05 (checked here by sampling it 20 001 times): it is kept, smooth."""
+    from rtctl.guard.motion import plan_route, route_trajectory
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0], margin=0.1)
+    route = plan_route(scene, [-2.0, 0.1], [[2.0, -0.1]])
+    assert route.bypassed
+    trajectory, smooth = route_trajectory(scene, route, JointLimits([1.0, 1.0], [2.0, 2.0]), smooth=True)
+    depth = _min_depth(scene, trajectory)
+    assert depth >= 0.05, depth
+    assert smooth
+
+
+def test_a_guarded_move_from_a_moving_state_heads_for_the_target_without_turning_back():
+    """``retarget_around``'s docstring: from the current reference state along the route
+    [q, target] — from q on, not back to q. Moving at 0.5 rad/s towards a target 4 rad ahead on
+    a clear line, joint 0's velocity never turns negative (sampled every ms); a move that first
+    went to rest at q would have to turn back to it."""
+    from rtctl.guard.motion import retarget_around
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0], margin=0.1)
+    q, qd = np.array([-2.0, 1.0]), np.array([0.5, 0.0])
+    trajectory, route = retarget_around(scene, 0.0, q, qd, np.zeros(2), [[2.0, 1.0]],
+                                        JointLimits([1.0, 1.0], [2.0, 2.0]))
+    assert route.points.tolist() == [[-2.0, 1.0], [2.0, 1.0]]
+    pos, vel, acc = np.zeros(2), np.zeros(2), np.zeros(2)
+    for t in np.arange(trajectory.t_start, trajectory.t_end, 1e-3):
+        trajectory.sample(float(t), pos, vel, acc)
+        assert vel[0] >= -1e-9, (t, vel)
+
+
+def test_a_plan_is_immutable():
+    """A plan is kept and shared (a route's legs): frozen, as declared."""
+    import dataclasses
+
+    from rtctl.guard.planner import plan_path
+
+    scene = Scene([], [-3.0, -3.0], [3.0, 3.0])
+    plan = plan_path(scene, [0.0, 0.0], [1.0, 1.0])
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        plan.found = False
