@@ -320,3 +320,16 @@ def test_a_plan_is_immutable():
     plan = plan_path(scene, [0.0, 0.0], [1.0, 1.0])
     with pytest.raises(dataclasses.FrozenInstanceError):
         plan.found = False
+
+
+def test_the_clamps_default_wall_is_the_safety_stages_default_hold():
+    """RuntimeGuard's docstring: damping and stiffness are "the safety stage's hold gains, in a
+    run" — built alone, it has the same defaults as the stage's configuration."""
+    from rtctl.config import SafetyConfig
+    from rtctl.guard import RuntimeGuard
+    from rtctl.guard.kernels import DAMPING, STIFFNESS
+
+    scene = Scene([], [-1.0], [1.0])
+    g = RuntimeGuard(scene, 10.0, 0.001)
+    defaults = SafetyConfig()
+    assert (g.par[STIFFNESS], g.par[DAMPING]) == (defaults.hold_stiffness, defaults.damping)
