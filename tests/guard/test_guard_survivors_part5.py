@@ -9,7 +9,9 @@ episode's end after exactly QUIET_TICKS clear ticks, a stop's own reason within 
 the shortcut keeping the start, ``clearance`` without pieces, ``prepare`` building the visibility
 graph, plan bounds around unbounded joints' zones, a limit violation naming its joint, frozen
 zones and plans, a polygon flat for its size, A* from a blocked start, a smooth route that
-keeps half the margin staying smooth, and a guarded move from a moving state."""
+keeps half the margin staying smooth, a guarded move from a moving state, the clamp's default
+wall, the grid's extent from the start, clamp mode exactly on a limit, a zone before a limit on
+the stopping path, and a wall of zero damping and stiffness."""
 from __future__ import annotations
 
 import numpy as np
@@ -333,3 +335,55 @@ def test_the_clamps_default_wall_is_the_safety_stages_default_hold():
     g = RuntimeGuard(scene, 10.0, 0.001)
     defaults = SafetyConfig()
     assert (g.par[STIFFNESS], g.par[DAMPING]) == (defaults.hold_stiffness, defaults.damping)
+
+
+def test_the_grid_spans_the_multiples_of_h_from_the_start_within_the_limits():
+    """The grid's nodes are the start plus whole multiples of h, within [lo, hi] (a limit that
+    is a multiple away is a node, rounding aside). By hand: start 0.5, h = 0.3, limits ±1:
+    down 5 steps to −1.0, up 1 step to 0.8 (two would be 1.1); start 0, h = 0.1, limits ±0.7:
+    7 steps each way, though 0.7 / 0.1 is 6.999… in floating point."""
+    from rtctl.guard.grid import Grid
+
+    scene = Scene([], [-1.0], [1.0])
+    g = Grid(scene.tables(), [0.5], [0.0], [0], 0.3, 0.0, [-1.0], [1.0])
+    assert (g.k_lo.tolist(), g.k_hi.tolist()) == ([-5], [1])
+    g = Grid(scene.tables(), [0.0], [0.5], [0], 0.1, 0.0, [-0.7], [0.7])
+    assert (g.k_lo.tolist(), g.k_hi.tolist()) == ([-7], [7])
+
+
+@pytest.mark.parametrize("at", ["q_min", "q_max"])
+def test_clamp_mode_at_rest_exactly_on_a_limit_clamps_rather_than_stops(at):
+    """Clamp mode stops only for a stopping path *past* a limit; one that ends in the limit's
+    band — here exactly on the limit, at rest — is clamped (the limit itself is allowed)."""
+    from rtctl.safety import GuardVerdict
+
+    g, state, command = _box_guard(action="clamp")
+    state.position[:] = [getattr(g.scene, at)[0], 2.5]
+    assert g.check(0.0, state, command) == GuardVerdict.MODIFIED
+
+
+def test_a_zone_on_the_stopping_path_before_a_limit_is_the_one_reported():
+    """guard_tick: "a limit met before the zone counts first" — and so a zone met before the
+    limit does. Joint 0 at 0 moving at 2 rad/s, braking at 2 rad/s²: the stop point is at
+    2·(0.001 + 0.5) = 1.002, past the upper limit 0.5; the box over joint 0 ∈ [0.2, 0.3] lies
+    on the way, at 0.2 — the event names the box."""
+    from rtctl.guard import RuntimeGuard
+    from rtctl.hal.joints import JointCommand, JointState
+    from rtctl.safety import GuardVerdict
+
+    scene = Scene([Zone("box", [Box((0, 1), [0.2, -1.0], [0.3, 1.0])])], [-0.5, -2.0], [0.5, 2.0])
+    g = RuntimeGuard(scene, np.array([2.0, 2.0]), 0.001, margin=0.02)
+    state, command = JointState(2), JointCommand(2)
+    state.velocity[:] = [2.0, 0.0]
+    assert g.check(0.0, state, command) == GuardVerdict.STOP
+    assert g.event()["zone"] == "box", g.event()
+
+
+def test_a_clamp_wall_without_damping_or_stiffness_is_accepted():
+    """RuntimeGuard's check: damping and stiffness "finite and >= 0" — 0 is allowed."""
+    from rtctl.guard import RuntimeGuard
+
+    scene = Scene([], [-1.0], [1.0])
+    RuntimeGuard(scene, 10.0, 0.001, damping=0.0, stiffness=0.0)
+    with pytest.raises(ValueError, match="finite and >= 0"):
+        RuntimeGuard(scene, 10.0, 0.001, damping=-1e-9)
