@@ -1,4 +1,4 @@
-"""Tests for the logic (leg synthesis) mutants left after the full logic run (docs/testing.md),
+"""Tests for logic (leg synthesis) mutants that survived the full run's fast pass (docs/testing.md),
 each against an expectation worked out by hand, by brute force in the test, or taken from the
 documentation:
 
