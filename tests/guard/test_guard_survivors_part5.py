@@ -11,7 +11,8 @@ graph, plan bounds around unbounded joints' zones, a limit violation naming its 
 zones and plans, a polygon flat for its size, A* from a blocked start, a smooth route that
 keeps half the margin staying smooth, a guarded move from a moving state, the clamp's default
 wall, the grid's extent from the start, clamp mode exactly on a limit, a zone before a limit on
-the stopping path, and a wall of zero damping and stiffness."""
+the stopping path, a wall of zero damping and stiffness, and the exact check of every segment
+of a visibility route."""
 from __future__ import annotations
 
 import numpy as np
@@ -387,3 +388,19 @@ def test_a_clamp_wall_without_damping_or_stiffness_is_accepted():
     RuntimeGuard(scene, 10.0, 0.001, damping=0.0, stiffness=0.0)
     with pytest.raises(ValueError, match="finite and >= 0"):
         RuntimeGuard(scene, 10.0, 0.001, damping=-1e-9)
+
+
+def test_every_segment_of_a_visibility_route_passes_the_exact_check():
+    """``shortest_path``'s docstring: ``segment_free(p, q)`` is "the exact check each segment of
+    the answer must pass". Two points right of the box [2, 3]² see each other, but the check
+    refuses their direct segment: the answer goes round by corners, and each of its segments
+    passes the check."""
+    from rtctl.guard.visibility import VisibilityMap
+
+    m = VisibilityMap([shapely.box(2.0, 2.0, 3.0, 3.0)], (0.0, 0.0, 10.0, 10.0))
+    a, b = np.array([4.0, 2.1]), np.array([4.0, 2.9])
+    direct = {(tuple(a), tuple(b)), (tuple(b), tuple(a))}
+    check = lambda p, q: (tuple(p), tuple(q)) not in direct  # noqa: E731
+    path = m.shortest_path(a, b, check)
+    assert path is not None and len(path) > 2, path
+    assert all(check(p, q) for p, q in zip(path, path[1:]))
