@@ -31,6 +31,19 @@ def _blocking(step, replied: threading.Event, calls: list):
     return blocked
 
 
+def _daemon_blocked_in(step, write_config, tmp_path):
+    """A daemon on the base config whose simulated device's ``step`` waits for the client's reply:
+    (daemon, args, device, the reply's event, the calls made)."""
+    cfg = load_config(write_config(BASE))
+    args = SimpleNamespace(telemetry=None, socket=str(tmp_path / "s.sock"), enforce_rt=False, duration=3600.0,
+                           summary=None, log_level="error")
+    d = Daemon(cfg, build(cfg), args)
+    (sim,) = d.rt.all_devices
+    replied, calls = threading.Event(), []
+    setattr(sim, step, _blocking(getattr(sim, step), replied, calls))
+    return d, args, sim, replied, calls
+
+
 @pytest.mark.parametrize("step, cmd, code, reason", [
     ("warm_up", "stop", 0, "stop requested"),  # the first kernel group, loaded in the daemon's process
     ("configure", "stop", 0, "stop requested"),
@@ -39,13 +52,8 @@ def _blocking(step, replied: threading.Event, calls: list):
 ])
 def test_a_stop_during_a_start_up_step_is_answered_then_and_ends_the_start(write_config, tmp_path, step, cmd, code,
                                                                            reason):
-    cfg = load_config(write_config(BASE))
-    args = SimpleNamespace(telemetry=None, socket=str(tmp_path / "s.sock"), enforce_rt=False, duration=3600.0,
-                           summary=None, log_level="error")
-    d = Daemon(cfg, build(cfg), args)
-    (sim,) = d.rt.all_devices
-    replied, calls, seen = threading.Event(), [], {}
-    setattr(sim, step, _blocking(getattr(sim, step), replied, calls))
+    d, args, sim, replied, calls = _daemon_blocked_in(step, write_config, tmp_path)
+    seen = {}
     activate = sim.activate
     sim.activate = lambda: (calls.append("activate called"), activate())[1]
 
@@ -84,13 +92,8 @@ def test_a_status_during_a_start_up_step_is_answered_then_with_what_the_daemon_d
                                                                                      doing):
     """Not held for the loop: a status (or a move) sent while a step runs is answered while it
     runs — not ok, the daemon is starting, and the step it is in — and the start goes on."""
-    cfg = load_config(write_config(BASE))
-    args = SimpleNamespace(telemetry=None, socket=str(tmp_path / "s.sock"), enforce_rt=False, duration=3600.0,
-                           summary=None, log_level="error")
-    d = Daemon(cfg, build(cfg), args)
-    (sim,) = d.rt.all_devices
-    replied, calls, seen = threading.Event(), [], {}
-    setattr(sim, step, _blocking(getattr(sim, step), replied, calls))
+    d, args, sim, replied, calls = _daemon_blocked_in(step, write_config, tmp_path)
+    seen = {}
 
     def operator():
         end = time.monotonic() + 60
