@@ -11,8 +11,11 @@ graph, plan bounds around unbounded joints' zones, a limit violation naming its 
 zones and plans, a polygon flat for its size, A* from a blocked start, a smooth route that
 keeps half the margin staying smooth, a guarded move from a moving state, the clamp's default
 wall, the grid's extent from the start, clamp mode exactly on a limit, a zone before a limit on
-the stopping path, a wall of zero damping and stiffness, and the exact check of every segment
-of a visibility route."""
+the stopping path, a wall of zero damping and stiffness, the exact check of every segment
+of a visibility route, the feasibility checks' margin, "inside" and polyline, a trajectory's
+later segments, a violation in degrees, a route's first-leg message and waypoint flags, a
+visibility plan's grid count, the unbounded joints' pad, a small deceleration, and the
+visibility graph's inflation."""
 from __future__ import annotations
 
 import numpy as np
@@ -404,3 +407,107 @@ def test_every_segment_of_a_visibility_route_passes_the_exact_check():
     path = m.shortest_path(a, b, check)
     assert path is not None and len(path) > 2, path
     assert all(check(p, q) for p, q in zip(path, path[1:]))
+
+
+def _box_scene(margin=0.1):
+    return Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0], margin=margin)
+
+
+def test_a_negative_check_margin_is_refused():
+    """``point_violation``'s margin: "finite and >= 0" — −0.5 is refused."""
+    from rtctl.guard.feasibility import point_violation
+
+    with pytest.raises(ValueError, match="margin must be finite and >= 0"):
+        point_violation(_box_scene(), [2.0, 2.0], margin=-0.5)
+
+
+def test_a_point_exactly_on_a_face_is_within_the_margin_not_inside():
+    """Zones are open: a point exactly on the face x0 = −0.5 is not inside the box, only within
+    its margin (0.1)."""
+    from rtctl.guard.feasibility import point_violation
+
+    bad = point_violation(_box_scene(), [-0.5, 0.0])
+    assert bad is not None and bad.what == "box" and not bad.inside
+    assert point_violation(_box_scene(), [-0.4, 0.0]).inside
+
+
+def test_a_polyline_is_checked_segment_by_segment():
+    """``path_violation``: the square of half-width 2 round the box is clear, side by side;
+    [(−2, 2), (−2, 0), (2, 0)] is not — its segment 1, along x1 = 0, enters the box."""
+    from rtctl.guard.feasibility import path_violation
+
+    assert path_violation(_box_scene(), [[-2.0, 0.0], [-2.0, 2.0], [2.0, 2.0], [2.0, -2.0], [-2.0, -2.0]]) is None
+    i, bad = path_violation(_box_scene(), [[-2.0, 2.0], [-2.0, 0.0], [2.0, 0.0]])
+    assert i == 1 and bad.what == "box" and bad.inside
+
+
+def test_a_trajectory_near_a_zone_is_found_in_its_later_segments_and_says_whether_inside():
+    """``trajectory_violation`` samples the whole trajectory: through (−2, 2) → (−2, 0) → (2, 0)
+    only the second segment comes near the box — found there; one that only grazes the margin
+    (x1 = 0.55) comes within it but not inside; a hold in the box's middle is inside."""
+    from rtctl.trajectory import through_waypoints
+
+    limits = JointLimits([1.0, 1.0], [2.0, 2.0])
+    crossing = through_waypoints(np.array([[-2.0, 0.0], [2.0, 0.0]]), limits, start=np.array([-2.0, 2.0]))
+    bad = trajectory_violation(_box_scene(), crossing, 0.05, [1.0, 1.0])
+    assert bad is not None and bad.what == "box" and bad.at > crossing.knots[1]
+    grazing = through_waypoints(np.array([[-2.0, 0.55], [2.0, 0.55]]), limits, start=np.array([-2.0, 2.0]))
+    bad = trajectory_violation(_box_scene(), grazing, 0.1, [1.0, 1.0])
+    assert bad is not None and not bad.inside
+    assert trajectory_violation(_box_scene(), hold([0.0, 0.0]), 0.1, [1.0, 1.0]).inside
+
+
+def test_a_violation_described_in_degrees_says_so():
+    """``describe(deg)``: joints of the mask shown in degrees, and the unit said: "… deg"."""
+    from rtctl.guard.feasibility import point_violation
+
+    bad = point_violation(_box_scene(), [-0.4, 0.0])
+    assert bad.describe(np.array([True, True])).endswith("at q = [-22.92, 0] deg")
+    assert bad.describe().endswith("at q = [-0.4, 0]")
+
+
+def test_a_route_names_the_start_when_its_first_leg_fails_and_flags_its_waypoints():
+    """``plan_route``: a first target inside a zone fails "from the start"; a route round the box
+    flags the asked points (start and waypoint) and not the corners, one flag per point."""
+    from rtctl.errors import GuardError
+    from rtctl.guard.motion import plan_route
+
+    with pytest.raises(GuardError, match="waypoint 0: cannot go there from the start"):
+        plan_route(_box_scene(), [-2.0, 0.0], [[0.0, 0.0]])
+    route = plan_route(_box_scene(), [-2.0, 0.1], [[2.0, -0.1]])
+    assert len(route.points) > 2 and route.waypoint.tolist() == [True] + [False] * (len(route.points) - 2) + [True]
+
+
+def test_a_visibility_plan_expands_no_grid_node():
+    """``Plan.expanded`` counts grid nodes: a plan found on the visibility graph (two joints
+    within finite limits) expands none."""
+    from rtctl.guard.planner import plan_path
+
+    plan = plan_path(_box_scene(), [-2.0, 0.1], [2.0, -0.1])
+    assert plan.found and plan.method == "visibility" and plan.expanded == 0
+
+
+def test_unbounded_joints_are_padded_by_at_least_one():
+    """``_bounds``: the pad is the span of the points and zones, at least 1: a joint whose values
+    span 0.5 (points at 0 and 0.5, no zone on it) gets [−1, 1.5]."""
+    from rtctl.guard.planner import _bounds
+
+    scene = Scene([], [-np.inf], [np.inf])
+    lo, hi = _bounds(scene, np.array([0]), np.array([0.0]), np.array([0.5]))
+    assert lo.tolist() == [-1.0] and hi.tolist() == [1.5]
+
+
+def test_a_small_deceleration_is_accepted():
+    """RuntimeGuard: deceleration "finite and > 0" — 0.5 rad/s² is a deceleration."""
+    from rtctl.guard import RuntimeGuard
+
+    RuntimeGuard(Scene([], [-1.0], [1.0]), 0.5, 0.001)
+
+
+def test_the_visibility_graph_is_inflated_by_a_hair_only_when_there_is_a_margin():
+    """``plan_inflation``: the checked margin plus a relative hair and 1 nm; no margin, none."""
+    from rtctl.guard.visibility import _INFLATE, plan_inflation
+
+    assert plan_inflation(0.0) == 0.0
+    assert plan_inflation(0.1) == 0.1 * (1.0 + _INFLATE) + 1e-9
+    assert plan_inflation(0.1) > 0.1
