@@ -154,7 +154,7 @@ class Daemon:
                 log.info("live view", url=self.live_view.url)
             compiling = Precompile(start_up.warm_up_groups(self)).start(
                 loading=ServedWhileStarting(server, "loading the compiled kernels"),
-                stop=lambda: self.stop_reason is not None or self.estopped)
+                stop=lambda: start_up.stopping(self))
             self.moves.start()  # the move planner: a process of its own, like the compile workers
             if compiling.loaded == len(compiling.groups):  # nothing to compile: it loads its kernels now
                 self.moves.warm()

@@ -32,7 +32,7 @@ def bring_up(d, compiling: Precompile, server) -> bool:
     activated: list[str] = []
     with ServedWhileStarting(server, "configuring the devices") as served:
         for _ in _steps(d, compiling, activated, served.doing):
-            if _stopping(d):
+            if stopping(d):
                 break
         else:
             log.info("started", config=str(d.cfg.file), robot=d.model.name, rate_hz=d.cfg.loop.rate_hz,
@@ -46,7 +46,8 @@ def bring_up(d, compiling: Precompile, server) -> bool:
     return False
 
 
-def _stopping(d) -> bool:
+def stopping(d) -> bool:
+    """A stop or an e-stop has come: the start ends at its next check."""
     return d.stop_reason is not None or d.estopped
 
 
@@ -70,7 +71,7 @@ def _steps(d, compiling: Precompile, activated: list[str], doing):
         np.put(state.velocity, idx, dev.state.velocity)
     guarded.check_start(d.cfg, state.position)
     doing("compiling kernels (a first run)")
-    compiling.wait(stop=lambda: _stopping(d))
+    compiling.wait(stop=lambda: stopping(d))
     yield
     doing("loading the compiled kernels")
     compiling.finish()

@@ -44,6 +44,18 @@ def _daemon_blocked_in(step, write_config, tmp_path):
     return d, args, sim, replied, calls
 
 
+def _run_beside(d, operator, replied) -> int:
+    """``d.run()`` with ``operator`` in a thread beside it; the blocked step is let go at the end
+    whatever happened (a failed operator must not leave the daemon waiting)."""
+    thread = threading.Thread(target=operator)
+    thread.start()
+    try:
+        return d.run()
+    finally:
+        replied.set()
+        thread.join()
+
+
 @pytest.mark.parametrize("step, cmd, code, reason", [
     ("warm_up", "stop", 0, "stop requested"),  # the first kernel group, loaded in the daemon's process
     ("configure", "stop", 0, "stop requested"),
@@ -68,13 +80,7 @@ def test_a_stop_during_a_start_up_step_is_answered_then_and_ends_the_start(write
         finally:
             replied.set()
 
-    thread = threading.Thread(target=operator)
-    thread.start()
-    try:
-        code_seen = d.run()
-    finally:
-        replied.set()
-        thread.join()
+    code_seen = _run_beside(d, operator, replied)
     assert seen["reply"]["ok"], seen
     assert code_seen == code
     assert d.stop_reason == reason
@@ -109,13 +115,7 @@ def test_a_status_during_a_start_up_step_is_answered_then_with_what_the_daemon_d
         seen["running"] = request(args.socket, "status", timeout=10.0)
         request(args.socket, "stop", timeout=10.0)
 
-    thread = threading.Thread(target=operator)
-    thread.start()
-    try:
-        code_seen = d.run()
-    finally:
-        replied.set()
-        thread.join()
+    code_seen = _run_beside(d, operator, replied)
     for name in ("status", "move"):
         assert not seen[name]["ok"] and seen[name]["starting"] == doing, seen
     assert seen["running"]["ok"] and "starting" not in seen["running"], seen
