@@ -1,0 +1,94 @@
+"""Tests for guard mutants that survived the full run's fast pass after part5 (docs/testing.md),
+each against the documentation or a value worked out by hand: the clamp's wall on a slanted
+face (its force along the face's unit normal, damped by the inward speed along it), the smooth
+route's certificate at half the margin, the fallback trajectory starting at the route's start,
+``plan_route``'s keyword-only options, and joint limits with a NaN on one side only."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rtctl.guard import Box, Scene, Zone
+from rtctl.guard.kernels import DAMPING, N_PARAMS, STIFFNESS, _push_out
+from rtctl.trajectory import JointLimits
+
+LIMITS = JointLimits([1.0, 1.0], [2.0, 2.0])
+
+
+def test_the_wall_on_a_slanted_face_pushes_along_its_normal_and_damps_the_inward_speed():
+    """``_push_out``'s docstring: a wall force stiffness × depth + damping × inward speed along
+    the outward unit normal w. For w = (0.6, 0.8), depth 0.01, stiffness 1000, damping 50 and
+    q̇ = (−1, −0.5) the inward speed is 0.6 + 0.4 = 1 rad/s, so the wall is 10 + 50 = 60 N·m
+    along w: τ = (36, 48) on a command of zero."""
+    par = np.zeros(N_PARAMS)
+    par[STIFFNESS], par[DAMPING] = 1000.0, 50.0
+    q, qd = np.array([0.5, 0.5]), np.array([-1.0, -0.5])
+    q_des, qd_des, tau = q.copy(), np.zeros(2), np.zeros(2)
+    _push_out(0, 1, 0.6, 0.8, 0.01, q, qd, q_des, qd_des, tau, 0, par)
+    np.testing.assert_allclose(tau, [36.0, 48.0], rtol=1e-12)
+
+
+def _route_past_a_box(monkeypatch, gap: float):
+    """A clear route (0, 0) → (3, 0) under the box [1, 2]² (margin 0.2), with the smooth
+    trajectory replaced by one that stops at (1.5, 1 − gap): ``gap`` from the box's lower face."""
+    from rtctl.guard import motion
+    from rtctl.guard.motion import plan_route, route_trajectory
+
+    scene = Scene([Zone("box", [Box((0, 1), [1.0, 1.0], [2.0, 2.0])])], [-8.0, -8.0], [8.0, 8.0], margin=0.2)
+    route = plan_route(scene, [0.0, 0.0], [[3.0, 0.0]])
+    assert not route.bypassed
+    real = motion.through_waypoints
+
+    def smooth_one_comes_close(points, limits, *, smooth=False, **options):
+        if smooth:
+            return real([[1.5, 1.0 - gap], [3.0, 0.0]], limits, **options)
+        return real(points, limits, **options)
+
+    monkeypatch.setattr(motion, "through_waypoints", smooth_one_comes_close)
+    return route_trajectory(scene, route, LIMITS, smooth=True)
+
+
+def test_a_smooth_trajectory_closer_than_half_the_margin_falls_back_to_the_straight_one_from_the_start(monkeypatch):
+    """rtctl.guard.motion: a smooth trajectory is kept only when it stays half the margin
+    (0.1 here) from every zone. One that passes 0.07 from the box is replaced by the
+    stop-at-each-point trajectory, which starts at the route's start (0, 0) and ends at (3, 0)."""
+    trajectory, smooth = _route_past_a_box(monkeypatch, 0.07)
+    assert smooth is False
+    q, qd, qdd = np.zeros(2), np.zeros(2), np.zeros(2)
+    trajectory.sample(float(trajectory.knots[0]), q, qd, qdd)
+    np.testing.assert_allclose(q, [0.0, 0.0], atol=1e-12)
+    trajectory.sample(float(trajectory.knots[-1]), q, qd, qdd)
+    np.testing.assert_allclose(q, [3.0, 0.0], atol=1e-12)
+    times = np.linspace(trajectory.knots[0], trajectory.knots[-1], 501)
+    for t in times:  # the straight one: y stays 0
+        trajectory.sample(float(t), q, qd, qdd)
+        assert abs(q[1]) < 1e-12
+
+
+def test_a_smooth_trajectory_beyond_half_the_margin_is_kept(monkeypatch):
+    """The same with a gap of 0.13 (more than half the margin, less than the margin): kept."""
+    trajectory, smooth = _route_past_a_box(monkeypatch, 0.13)
+    assert smooth is True
+    q, qd, qdd = np.zeros(2), np.zeros(2), np.zeros(2)
+    trajectory.sample(float(trajectory.knots[1]), q, qd, qdd)
+    np.testing.assert_allclose(q, [1.5, 0.87], atol=1e-12)
+
+
+def test_plan_route_takes_its_options_by_keyword_only():
+    """``plan_route(scene, start, waypoints, *, resolution=…, …)``: the options are keyword-only
+    (a resolution passed by position is refused), and the three points may be named."""
+    from rtctl.guard.motion import plan_route
+
+    scene = Scene([], [-1.0, -1.0], [1.0, 1.0])
+    with pytest.raises(TypeError):
+        plan_route(scene, [0.0, 0.0], [[0.5, 0.0]], 0.05)
+    route = plan_route(scene=scene, start=[0.0, 0.0], waypoints=[[0.5, 0.0]])
+    np.testing.assert_array_equal(route.points[-1], [0.5, 0.0])
+
+
+@pytest.mark.parametrize("q_min, q_max", [([np.nan, 0.0], [1.0, 1.0]), ([0.0, 0.0], [1.0, np.nan])])
+def test_limits_with_a_nan_on_one_side_only_are_refused(q_min, q_max):
+    """A Scene needs q_min < q_max for every joint; NaN compares false with everything, so a
+    NaN in q_min alone or in q_max alone must be refused as well."""
+    with pytest.raises(ValueError, match="q_min < q_max"):
+        Scene([], q_min, q_max)
