@@ -2,7 +2,9 @@
 each against the documentation or a value worked out by hand: the clamp's wall on a slanted
 face (its force along the face's unit normal, damped by the inward speed along it), the smooth
 route's certificate at half the margin, the fallback trajectory starting at the route's start,
-``plan_route``'s keyword-only options, and joint limits with a NaN on one side only."""
+``plan_route``'s keyword-only options, joint limits with a NaN on one side only, clamp mode
+exactly on the inner band's edge, a negative stiffness, a v_max of 0 for the trajectory
+certificate, and the first out-of-range joint of a zone named."""
 from __future__ import annotations
 
 import numpy as np
@@ -92,3 +94,48 @@ def test_limits_with_a_nan_on_one_side_only_are_refused(q_min, q_max):
     NaN in q_min alone or in q_max alone must be refused as well."""
     with pytest.raises(ValueError, match="q_min < q_max"):
         Scene([], q_min, q_max)
+
+
+def test_clamp_at_rest_exactly_on_the_inner_bands_edge_pushes_along_that_face():
+    """guard_tick: with CLAMP the command is pushed out along every face that separates q from
+    the inner band (zone ⊕ g/2) — q on that band's boundary is not inside it, so the face counts.
+    Box [−0.5, 0.5]², g = 0.5, at rest at x = −0.75 (exactly g/2 from the face x = −0.5): the
+    stopping path is in the outer half, not the inner one, so the verdict is MODIFIED with a wall
+    of stiffness × depth = 1000 × (0.5 + 0.5 − 0.75) = 250 N·m along the face's normal (−1, 0)."""
+    from rtctl.guard import RuntimeGuard
+    from rtctl.hal.joints import JointCommand, JointState
+    from rtctl.safety import GuardVerdict
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0])
+    g = RuntimeGuard(scene, np.array([10.0, 10.0]), 0.001, margin=0.5, action="clamp", damping=0.0, stiffness=1000.0)
+    state, command = JointState(2), JointCommand(2)
+    state.position[:] = [-0.75, 0.0]
+    assert g.check(0.0, state, command) == GuardVerdict.MODIFIED
+    np.testing.assert_array_equal(command.tau_ff, [-250.0, 0.0])
+
+
+def test_a_negative_stiffness_is_refused():
+    """RuntimeGuard: damping and stiffness "finite and >= 0" — a stiffness just below 0 is not."""
+    from rtctl.guard import RuntimeGuard
+
+    with pytest.raises(ValueError, match="finite and >= 0"):
+        RuntimeGuard(Scene([], [-1.0], [1.0]), 10.0, 0.001, stiffness=-1e-9)
+
+
+@pytest.mark.parametrize("v_max", [[0.0, 1.0], [1.0, -0.5]])
+def test_the_trajectory_certificate_refuses_a_v_max_that_is_not_positive(v_max):
+    """``trajectory_violation``: v_max must be n finite positive values (it bounds the motion
+    between samples; 0 or a negative value would make the certificate vacuous)."""
+    from rtctl.guard.feasibility import trajectory_violation
+    from rtctl.trajectory.planning import hold
+
+    scene = Scene([], [-1.0, -1.0], [1.0, 1.0])
+    with pytest.raises(ValueError, match="finite positive"):
+        trajectory_violation(scene, hold(np.zeros(2), 0.0), 0.1, v_max)
+
+
+def test_a_zone_on_joints_the_robot_lacks_names_the_first_of_them():
+    """Every fault names its cause: a zone over joints (5, 7) of a 2-joint robot names joint
+    index 5, the first one out of range."""
+    with pytest.raises(ValueError, match=r"joint index 5 out of range \(the robot has 2 joints\)"):
+        Scene([Zone("far", [Box((5, 7), [0.0, 0.0], [1.0, 1.0])])], [-1.0, -1.0], [1.0, 1.0])
