@@ -4,7 +4,8 @@ face (its force along the face's unit normal, damped by the inward speed along i
 route's certificate at half the margin, the fallback trajectory starting at the route's start,
 ``plan_route``'s keyword-only options, joint limits with a NaN on one side only, clamp mode
 exactly on the inner band's edge, a negative stiffness, a v_max of 0 for the trajectory
-certificate, and the first out-of-range joint of a zone named."""
+certificate, the first out-of-range joint of a zone named, and the first time a trajectory
+comes too close (not a later one)."""
 from __future__ import annotations
 
 import numpy as np
@@ -139,3 +140,18 @@ def test_a_zone_on_joints_the_robot_lacks_names_the_first_of_them():
     index 5, the first one out of range."""
     with pytest.raises(ValueError, match=r"joint index 5 out of range \(the robot has 2 joints\)"):
         Scene([Zone("far", [Box((5, 7), [0.0, 0.0], [1.0, 1.0])])], [-1.0, -1.0], [1.0, 1.0])
+
+
+def test_the_certificate_reports_the_first_time_the_trajectory_comes_too_close():
+    """``trajectory_violation``: "the first time the trajectory comes closer than clearance".
+    Along y = 0 from x = −2 to 2 through the box [−0.5, 0.5]² with clearance 0.1, samples are
+    flagged below 0.1 + ½·step = 0.125 (step = 0.05), i.e. at x > −0.625, and they lie at most
+    0.05 apart: the report is the first of them, at x ∈ (−0.625, −0.575], not one on the far side."""
+    from rtctl.guard.feasibility import trajectory_violation
+    from rtctl.trajectory import through_waypoints
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0])
+    trajectory = through_waypoints([[2.0, 0.0]], LIMITS, start=[-2.0, 0.0])
+    hit = trajectory_violation(scene, trajectory, 0.1, [1.0, 1.0])
+    assert hit is not None and hit.what == "box"
+    assert -0.625 < hit.q[0] <= -0.575, hit
