@@ -4,8 +4,10 @@ face (its force along the face's unit normal, damped by the inward speed along i
 route's certificate at half the margin, the fallback trajectory starting at the route's start,
 ``plan_route``'s keyword-only options, joint limits with a NaN on one side only, clamp mode
 exactly on the inner band's edge, a negative stiffness, a v_max of 0 for the trajectory
-certificate, the first out-of-range joint of a zone named, and the first time a trajectory
-comes too close (not a later one)."""
+certificate, the first out-of-range joint of a zone named, the first time a trajectory comes
+too close (not a later one), a point exactly on a face (in the margin, not inside), a guarded
+move's duration on a clear route, the plan's resolution, and ``prepare`` skipping the groups
+it builds no graph for."""
 from __future__ import annotations
 
 import numpy as np
@@ -14,6 +16,7 @@ import pytest
 from rtctl.guard import Box, Scene, Zone
 from rtctl.guard.kernels import DAMPING, N_PARAMS, STIFFNESS, _push_out
 from rtctl.trajectory import JointLimits
+from rtctl.trajectory.planning import hold
 
 LIMITS = JointLimits([1.0, 1.0], [2.0, 2.0])
 
@@ -128,7 +131,6 @@ def test_the_trajectory_certificate_refuses_a_v_max_that_is_not_positive(v_max):
     """``trajectory_violation``: v_max must be n finite positive values (it bounds the motion
     between samples; 0 or a negative value would make the certificate vacuous)."""
     from rtctl.guard.feasibility import trajectory_violation
-    from rtctl.trajectory.planning import hold
 
     scene = Scene([], [-1.0, -1.0], [1.0, 1.0])
     with pytest.raises(ValueError, match="finite positive"):
@@ -155,3 +157,53 @@ def test_the_certificate_reports_the_first_time_the_trajectory_comes_too_close()
     hit = trajectory_violation(scene, trajectory, 0.1, [1.0, 1.0])
     assert hit is not None and hit.what == "box"
     assert -0.625 < hit.q[0] <= -0.575, hit
+
+
+def test_a_point_exactly_on_a_zones_face_is_in_its_margin_not_inside_it():
+    """``Violation.inside``: False when only the margin is entered. Zones are open: a trajectory
+    resting exactly on the face x = −0.5 of the box [−0.5, 0.5]² (depth 0) comes too close but
+    is not inside."""
+    from rtctl.guard.feasibility import trajectory_violation
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0])
+    hit = trajectory_violation(scene, hold([-0.5, 0.0]), 0.1, [1.0, 1.0])
+    assert hit is not None and hit.what == "box" and not hit.inside
+
+
+def test_a_guarded_move_with_a_duration_on_a_clear_route_keeps_the_duration():
+    """``retarget_around``: only a move that has to go around a zone refuses a duration; on a
+    clear route the trajectory from rest ends at t + duration at the target."""
+    from rtctl.guard.motion import retarget_around
+
+    scene = Scene([Zone("box", [Box((0, 1), [2.0, 2.0], [3.0, 3.0])])], [-8.0, -8.0], [8.0, 8.0], margin=0.1)
+    trajectory, route = retarget_around(scene, 1.0, np.zeros(2), np.zeros(2), np.zeros(2), [[1.0, 0.0]], LIMITS,
+                                        duration=4.0)
+    assert not route.bypassed
+    assert trajectory.knots[-1] == pytest.approx(5.0, abs=1e-12)
+    q, qd, qdd = np.zeros(2), np.zeros(2), np.zeros(2)
+    trajectory.sample(5.0, q, qd, qdd)
+    np.testing.assert_allclose(q, [1.0, 0.0], atol=1e-12)
+
+
+@pytest.mark.parametrize("resolution", [0.0, -0.5, np.inf, np.nan])
+def test_a_plan_needs_a_finite_positive_resolution(resolution):
+    """``plan_path``: the grid's resolution must be finite and > 0 (ValueError otherwise)."""
+    from rtctl.guard.planner import plan_path
+
+    scene = Scene([], [-1.0, -1.0], [1.0, 1.0])
+    with pytest.raises(ValueError, match="resolution must be > 0"):
+        plan_path(scene, [0.0, 0.0], [0.5, 0.0], resolution=resolution)
+
+
+def test_prepare_skips_groups_that_are_not_two_joints_within_finite_limits():
+    """``prepare``: visibility graphs only for two-joint groups within finite limits — a zone over
+    three joints (searched on a grid) and one in a plane with an unbounded joint get none, and
+    preparing such a scene works."""
+    from rtctl.guard import planner
+
+    inf = np.inf
+    scene = Scene([Zone("cube", [Box((0, 1, 2), [-0.5, -0.5, -0.5], [0.5, 0.5, 0.5])]),
+                   Zone("slab", [Box((3, 4), [-0.5, -0.5], [0.5, 0.5])])],
+                  [-3.0, -3.0, -3.0, -inf, -3.0], [3.0, 3.0, 3.0, inf, 3.0], margin=0.1)
+    planner.prepare(scene)
+    assert not planner._MAPS.get(scene)
