@@ -6,8 +6,8 @@ route's certificate at half the margin, the fallback trajectory starting at the 
 exactly on the inner band's edge, a negative stiffness, a v_max of 0 for the trajectory
 certificate, the first out-of-range joint of a zone named, the first time a trajectory comes
 too close (not a later one), a point exactly on a face (in the margin, not inside), a guarded
-move's duration on a clear route, the plan's resolution, and ``prepare`` skipping the groups
-it builds no graph for."""
+move's duration on a clear route, the plan's resolution, ``prepare`` skipping the groups it
+builds no graph for, and a vanishing margin that must not empty a zone's shape."""
 from __future__ import annotations
 
 import numpy as np
@@ -207,3 +207,17 @@ def test_prepare_skips_groups_that_are_not_two_joints_within_finite_limits():
                   [-3.0, -3.0, -3.0, -inf, -3.0], [3.0, 3.0, 3.0, inf, 3.0], margin=0.1)
     planner.prepare(scene)
     assert not planner._MAPS.get(scene)
+
+
+@pytest.mark.parametrize("margin", [1e-300, 5e-324])
+def test_a_vanishing_margin_does_not_empty_a_zones_shape(margin):
+    """``inflated_shape`` (planning and plots): the piece grown by the margin. GEOS returns an
+    empty polygon when buffering by a tiny distance (1e-300 here): a margin that small must still
+    give the piece itself — the triangle of area ½ and the unit box."""
+    from rtctl.guard import Polygon
+
+    scene = Scene([Zone("tri", [Polygon((0, 1), [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])]),
+                   Zone("box", [Box((0, 1), [2.0, 2.0], [3.0, 3.0])])], [-5.0, -5.0], [5.0, 5.0])
+    bounds = (-5.0, -5.0, 5.0, 5.0)
+    assert scene.inflated_shape(0, (0, 1), margin, bounds).area == pytest.approx(0.5, abs=1e-9)
+    assert scene.inflated_shape(1, (0, 1), margin, bounds).area == pytest.approx(1.0, abs=1e-9)
