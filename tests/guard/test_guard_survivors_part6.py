@@ -7,7 +7,9 @@ exactly on the inner band's edge, a negative stiffness, a v_max of 0 for the tra
 certificate, the first out-of-range joint of a zone named, the first time a trajectory comes
 too close (not a later one), a point exactly on a face (in the margin, not inside), a guarded
 move's duration on a clear route, the plan's resolution, ``prepare`` skipping the groups it
-builds no graph for, and a vanishing margin that must not empty a zone's shape."""
+builds no graph for, a vanishing margin that must not empty a zone's shape, the per-tick
+check's first face of each piece (a face of another piece let the first tick skip a zone), a
+route of just its start, a route's length, and a plan from a start inside a zone."""
 from __future__ import annotations
 
 import numpy as np
@@ -221,3 +223,65 @@ def test_a_vanishing_margin_does_not_empty_a_zones_shape(margin):
     bounds = (-5.0, -5.0, 5.0, 5.0)
     assert scene.inflated_shape(0, (0, 1), margin, bounds).area == pytest.approx(0.5, abs=1e-9)
     assert scene.inflated_shape(1, (0, 1), margin, bounds).area == pytest.approx(1.0, abs=1e-9)
+
+
+A = Zone("A", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])
+
+
+@pytest.mark.parametrize("zones", [
+    [A, Zone("B", [Box((0, 1), [-3.0, -1.0], [-2.0, 1.0])])],  # B's first face: q₀ ≥ −2
+    [Zone("B", [Box((0, 1), [-3.0, -3.0], [-2.0, -1.0])]),  # B's third face: q₁ ≥ −1
+     Zone("C", [Box((0, 1), [3.0, 3.0], [4.0, 4.0])]), A],
+])
+def test_the_first_tick_checks_every_piece_not_a_face_of_another_one(zones):
+    """The per-tick check skips a piece when the stopping path lies outside the face it
+    remembers for it — ``pack``: initially each piece's own first row. A = [−0.5, 0.5]² among
+    boxes with a face the robot lies outside of (the row just after A's, or row 2, A's zone
+    index). At rest at (−0.51, 0), inside A's guard margin of 0.02, the very first check stops."""
+    from rtctl.guard import RuntimeGuard
+    from rtctl.hal.joints import JointCommand, JointState
+    from rtctl.safety import GuardVerdict
+
+    scene = Scene(zones, [-5.0, -5.0], [5.0, 5.0])
+    g = RuntimeGuard(scene, np.array([10.0, 10.0]), 0.001, margin=0.02)
+    state, command = JointState(2), JointCommand(2)
+    state.position[:] = [-0.51, 0.0]
+    assert g.check(0.0, state, command) == GuardVerdict.STOP
+    assert g.event()["zone"] == "A"
+
+
+def test_a_route_of_just_its_start_holds_the_start():
+    """``route_trajectory``: the trajectory through the route from its start — a route with no
+    waypoint is the start alone, held from t0."""
+    from rtctl.guard.motion import plan_route, route_trajectory
+
+    scene = Scene([], [-1.0, -1.0], [1.0, 1.0])
+    route = plan_route(scene, [0.3, -0.2], np.empty((0, 2)))
+    for smooth in (False, True):
+        trajectory, _ = route_trajectory(scene, route, LIMITS, smooth=smooth, t0=1.5)
+        q, qd, qdd = np.zeros(2), np.zeros(2), np.zeros(2)
+        trajectory.sample(7.0, q, qd, qdd)
+        np.testing.assert_array_equal(q, [0.3, -0.2])
+        assert trajectory.knots[0] == 1.5
+
+
+def test_the_length_of_a_route_is_the_sum_of_its_segments():
+    """``Route.length``: (0, 0) → (3, 4) → (3, 0) is 5 + 4 = 9."""
+    from rtctl.guard.motion import plan_route
+
+    scene = Scene([], [-9.0, -9.0], [9.0, 9.0])
+    assert plan_route(scene, [0.0, 0.0], [[3.0, 4.0], [3.0, 0.0]]).length == pytest.approx(9.0, rel=1e-15)
+
+
+def test_a_plan_from_a_start_inside_a_zone_is_not_found_and_says_why():
+    """``plan_path``: a start inside a zone gives no path (``found`` False), the reason naming
+    the start; ``plan_route`` turns it into a GuardError naming the first waypoint."""
+    from rtctl.errors import GuardError
+    from rtctl.guard.motion import plan_route
+    from rtctl.guard.planner import plan_path
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0])
+    plan = plan_path(scene, [0.0, 0.0], [2.0, 0.0])
+    assert not plan.found and plan.path is None and plan.reason.startswith("the start is")
+    with pytest.raises(GuardError, match="waypoint 0: cannot go there from the start: the start is"):
+        plan_route(scene, [0.0, 0.0], [[2.0, 0.0]])
