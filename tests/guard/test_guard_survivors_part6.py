@@ -9,7 +9,8 @@ too close (not a later one), a point exactly on a face (in the margin, not insid
 move's duration on a clear route, the plan's resolution, ``prepare`` skipping the groups it
 builds no graph for, a vanishing margin that must not empty a zone's shape, the per-tick
 check's first face of each piece (a face of another piece let the first tick skip a zone), a
-route of just its start, a route's length, and a plan from a start inside a zone."""
+route of just its start, a route's length, a plan from a start inside a zone, a trajectory
+exactly on its limits, and the first joint named past two limits at once."""
 from __future__ import annotations
 
 import numpy as np
@@ -285,3 +286,23 @@ def test_a_plan_from_a_start_inside_a_zone_is_not_found_and_says_why():
     assert not plan.found and plan.path is None and plan.reason.startswith("the start is")
     with pytest.raises(GuardError, match="waypoint 0: cannot go there from the start: the start is"):
         plan_route(scene, [0.0, 0.0], [[2.0, 0.0]])
+
+
+@pytest.mark.parametrize("q", [[-3.0, 0.0], [3.0, 0.0], [-3.0, 3.0]])
+def test_a_trajectory_exactly_on_its_limits_keeps_them(q):
+    """The limits are inclusive (q_min ≤ q ≤ q_max): a trajectory resting exactly on one, far
+    from every zone, has no violation."""
+    from rtctl.guard.feasibility import trajectory_violation
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0])
+    assert trajectory_violation(scene, hold(q), 0.1, [1.0, 1.0]) is None
+
+
+def test_a_trajectory_past_two_limits_at_once_names_the_first_joint():
+    """A violation names its cause: past both joints' limits at the same sample, the report names
+    the first joint's limit, as every other check of the limits does."""
+    from rtctl.guard.feasibility import trajectory_violation
+
+    scene = Scene([], [-3.0, -3.0], [3.0, 3.0], joint_names=("shoulder", "elbow"))
+    hit = trajectory_violation(scene, hold([3.5, -3.5]), 0.1, [1.0, 1.0])
+    assert hit is not None and hit.what == "shoulder limit"
