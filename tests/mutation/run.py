@@ -88,7 +88,8 @@ TARGETS = {
     "logic": (["rtctl/logic"], "tests/leg/test_synthesis.py tests/leg/test_circuit_by_brute_force.py "
               "tests/leg/test_table.py tests/leg/test_compile_limits.py tests/leg/test_walking.py "
               "tests/leg/test_logic_survivors.py tests/leg/test_logic_survivors_part2.py tests/leg/test_logic_survivors_part3.py "
-              "tests/leg/test_logic_survivors_part4.py tests/leg/test_logic_survivors_part5.py", 300),
+              "tests/leg/test_logic_survivors_part4.py tests/leg/test_logic_survivors_part5.py "
+              "tests/leg/test_logic_survivors_part6.py tests/leg/test_logic_survivors_part7.py", 300),
     "vision": (["rtctl/vision", "drivers/protocols/framegrabber.py", "drivers/protocols/framegrabber_host.py"],
                "tests/vision", 300),  # (with the daemon runs: 19 s)
     "mcap": (["rtctl/telemetry/mcap_export.py", "rtctl/telemetry/channels.py"],  # (channels: shared with the live view)
