@@ -89,6 +89,7 @@ TARGETS = {
               "tests/leg/test_table.py tests/leg/test_compile_limits.py tests/leg/test_walking.py "
               "tests/leg/test_logic_survivors.py tests/leg/test_logic_survivors_part2.py tests/leg/test_logic_survivors_part3.py "
               "tests/leg/test_logic_survivors_part4.py tests/leg/test_logic_survivors_part5.py "
+              "tests/leg/test_logic_survivors_part6.py tests/leg/test_logic_survivors_part7.py "
               "tests/leg/test_minimiser.py tests/leg/test_guard_lag.py tests/leg/test_controller.py", 300),
     "vision": (["rtctl/vision", "drivers/protocols/framegrabber.py", "drivers/protocols/framegrabber_host.py"],
                "tests/vision", 300),  # (with the daemon runs: 19 s)
