@@ -34,8 +34,8 @@ def state_sequence(kind: str, n_states: int, seed: int = 0) -> list[int]:
     tour = [1] + rng.sample(range(2, n_states + 1), n_states - 1)
     while len(tour) < 3 * n_states:
         tour.append(rng.choice([s for s in range(1, n_states + 1) if s != tour[-1]]))
-    if tour[-1] == 1:  # (the cycle closes on state 1: no row may repeat its successor's state)
-        tour[-1] = 2
+    if tour[-1] == 1:  # the cycle closes on state 1: the last row needs a state other than both neighbours'
+        tour[-1] = min(s for s in range(2, n_states + 1) if s != tour[-2])
     return tour
 
 

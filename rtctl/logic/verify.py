@@ -116,7 +116,8 @@ class ReplayRow:
 
 
 def replay(circuit: Circuit, model: CircuitModel, keep: int = 5) -> list[ReplayRow]:
-    """Table rows in every one-at-a-time order of their changed gate bits (module doc)."""
+    """Table rows in every one-at-a-time order of their changed gate bits (module doc); each
+    row keeps its first ``keep`` failing orders and counts them all."""
     table, a = circuit.table, circuit.assignment
     em = Emulator(model)
     rows = []
