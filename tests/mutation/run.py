@@ -90,7 +90,8 @@ TARGETS = {
               "tests/leg/test_logic_survivors.py tests/leg/test_logic_survivors_part2.py tests/leg/test_logic_survivors_part3.py "
               "tests/leg/test_logic_survivors_part4.py tests/leg/test_logic_survivors_part5.py "
               "tests/leg/test_logic_survivors_part6.py tests/leg/test_logic_survivors_part7.py "
-              "tests/leg/test_minimiser.py tests/leg/test_guard_lag.py tests/leg/test_controller.py", 300),
+              "tests/leg/test_minimiser.py tests/leg/test_guard_lag.py tests/leg/test_controller.py "
+              "tests/leg/test_logic_report_limits.py", 300),
     "vision": (["rtctl/vision", "drivers/protocols/framegrabber.py", "drivers/protocols/framegrabber_host.py"],
                "tests/vision", 300),  # (with the daemon runs: 19 s)
     "mcap": (["rtctl/telemetry/mcap_export.py", "rtctl/telemetry/channels.py"],  # (channels: shared with the live view)
