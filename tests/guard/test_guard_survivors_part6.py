@@ -10,7 +10,8 @@ move's duration on a clear route, the plan's resolution, ``prepare`` skipping th
 builds no graph for, a vanishing margin that must not empty a zone's shape, the per-tick
 check's first face of each piece (a face of another piece let the first tick skip a zone), a
 route of just its start, a route's length, a plan from a start inside a zone, a trajectory
-exactly on its limits, and the first joint named past two limits at once."""
+exactly on its limits, the first joint named past two limits at once, and a route's
+trajectory starting at t = 0 by default."""
 from __future__ import annotations
 
 import numpy as np
@@ -306,3 +307,12 @@ def test_a_trajectory_past_two_limits_at_once_names_the_first_joint():
     scene = Scene([], [-3.0, -3.0], [3.0, 3.0], joint_names=("shoulder", "elbow"))
     hit = trajectory_violation(scene, hold([3.5, -3.5]), 0.1, [1.0, 1.0])
     assert hit is not None and hit.what == "shoulder limit"
+
+
+def test_a_routes_trajectory_starts_at_time_zero_unless_told():
+    """``route_trajectory(…, t0=0.0)``: without t0 the trajectory starts at t = 0 at the route's start."""
+    from rtctl.guard.motion import plan_route, route_trajectory
+
+    scene = Scene([], [-1.0, -1.0], [1.0, 1.0])
+    trajectory, _ = route_trajectory(scene, plan_route(scene, [0.0, 0.0], [[0.5, 0.0]]), LIMITS)
+    assert trajectory.knots[0] == 0.0
