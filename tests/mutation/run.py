@@ -93,7 +93,7 @@ TARGETS = {
               "tests/leg/test_minimiser.py tests/leg/test_guard_lag.py tests/leg/test_controller.py "
               "tests/leg/test_logic_report_limits.py", 300),
     "vision": (["rtctl/vision", "drivers/protocols/framegrabber.py", "drivers/protocols/framegrabber_host.py"],
-               "tests/vision", 300),  # (with the daemon runs: 19 s)
+               "tests/vision tests/hil/test_framegrabber_hil.py", 300),  # (with the daemon runs: 19 s; the HIL runs: 35 s)
     "mcap": (["rtctl/telemetry/mcap_export.py", "rtctl/telemetry/channels.py"],  # (channels: shared with the live view)
              "tests/telemetry/test_mcap_export.py tests/telemetry/test_mcap_times_and_levels.py "
              "tests/telemetry/test_mcap_events_and_stamps.py tests/telemetry/test_mcap_channels.py "
