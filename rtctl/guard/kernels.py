@@ -51,7 +51,7 @@ def piece_depth(rows, cols, r0, r1, x, enough=np.inf):  # pragma: no cover - com
 
 @kernel(error_model="numpy")
 def clearance(rows, cols, pieces, x):  # pragma: no cover - compiled
-    """(smallest piece depth at x, that piece; +inf and -1 without pieces)."""
+    """(smallest piece depth at x, the first piece with it; +inf and -1 without pieces)."""
     best, which = np.inf, -1
     for p in range(pieces.shape[0]):
         d = piece_depth(rows, cols, pieces[p, 0], pieces[p, 1], x, best)

@@ -10,8 +10,9 @@ move's duration on a clear route, the plan's resolution, ``prepare`` skipping th
 builds no graph for, a vanishing margin that must not empty a zone's shape, the per-tick
 check's first face of each piece (a face of another piece let the first tick skip a zone), a
 route of just its start, a route's length, a plan from a start inside a zone, a trajectory
-exactly on its limits, the first joint named past two limits at once, and a route's
-trajectory starting at t = 0 by default."""
+exactly on its limits, the first joint named past two limits at once, a route's trajectory
+starting at t = 0 by default, the per-tick report's zone, face and piece, a zone and a limit
+band entered at the same point (the zone is named), and the first of two equally close zones."""
 from __future__ import annotations
 
 import numpy as np
@@ -316,3 +317,51 @@ def test_a_routes_trajectory_starts_at_time_zero_unless_told():
     scene = Scene([], [-1.0, -1.0], [1.0, 1.0])
     trajectory, _ = route_trajectory(scene, plan_route(scene, [0.0, 0.0], [[0.5, 0.0]]), LIMITS)
     assert trajectory.knots[0] == 0.0
+
+
+def test_the_report_names_the_zone_face_and_piece_the_stopping_path_enters():
+    """guard_tick's ``report``: KIND, and for a zone the zone's index (WHICH), the face row
+    (FACE) and the piece (PIECE). A = [−0.5, 0.5]² is piece 0 (rows 0–3), B = [2, 3] × [−1, 1]
+    piece 1 (rows 4–7: q₀ ≥ 3, q₀ ≤ 2, q₁ ≥ 1, q₁ ≤ −1). From 1.95 at 1 rad/s, braking at
+    10 rad/s², the stop point is 1.95 + 0.051 = 2.001: the path enters B through row 5."""
+    from rtctl.guard import RuntimeGuard
+    from rtctl.guard import kernels as k
+    from rtctl.hal.joints import JointCommand, JointState
+    from rtctl.safety import GuardVerdict
+
+    scene = Scene([A, Zone("B", [Box((0, 1), [2.0, -1.0], [3.0, 1.0])])], [-5.0, -5.0], [5.0, 5.0])
+    g = RuntimeGuard(scene, np.array([10.0, 10.0]), 0.001, margin=0.02)
+    state, command = JointState(2), JointCommand(2)
+    state.position[:], state.velocity[:] = [1.95, 0.0], [1.0, 0.0]
+    assert g.check(0.0, state, command) == GuardVerdict.STOP
+    assert [int(g.report[i]) for i in (k.KIND, k.WHICH, k.FACE, k.PIECE)] == [k.ZONE, 1, 5, 1]
+
+
+def test_a_zone_and_a_limit_band_both_entered_at_the_start_report_the_zone():
+    """guard_tick: the first violation met along q→p is reported, and a limit only when it is met
+    *before* the zone. Clamp mode, guard margin 0.02: at q₀ = 2.995 the robot is already inside the
+    upper limit's band (from 2.99) and 0.015 from the box [2, 2.98] × [−1, 1] (inside its outer
+    band); moving on at 0.1 rad/s both are met at s = 0 — a tie, so the zone is named."""
+    from rtctl.guard import RuntimeGuard
+    from rtctl.hal.joints import JointCommand, JointState
+    from rtctl.safety import GuardVerdict
+
+    scene = Scene([Zone("box", [Box((0, 1), [2.0, -1.0], [2.98, 1.0])])], [-3.0, -3.0], [3.0, 3.0])
+    g = RuntimeGuard(scene, np.array([10.0, 10.0]), 0.001, margin=0.02, action="clamp")
+    state, command = JointState(2), JointCommand(2)
+    state.position[:], state.velocity[:] = [2.995, 0.0], [0.1, 0.0]
+    assert g.check(0.0, state, command) == GuardVerdict.MODIFIED
+    assert g.event()["zone"] == "box", g.event()
+
+
+def test_a_point_as_close_to_two_zones_names_the_first_declared():
+    """``clearance``: the smallest depth and the first piece with it — (1, 0) is 0.5 from both
+    A = [−0.5, 0.5]² and C = [1.5, 2.5] × [−0.5, 0.5]: piece 0, and a trajectory resting there
+    that must keep 0.6 names zone A."""
+    from rtctl.guard.feasibility import trajectory_violation
+    from rtctl.guard.kernels import clearance
+
+    scene = Scene([A, Zone("C", [Box((0, 1), [1.5, -0.5], [2.5, 0.5])])], [-5.0, -5.0], [5.0, 5.0])
+    assert clearance(*scene.tables(), np.array([1.0, 0.0])) == (0.5, 0)
+    hit = trajectory_violation(scene, hold([1.0, 0.0]), 0.6, [1.0, 1.0])
+    assert hit is not None and hit.what == "A"
