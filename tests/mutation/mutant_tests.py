@@ -52,9 +52,20 @@ def time_limit(baseline_s: float) -> float:
     return 3.0 * baseline_s + 60.0
 
 
+class Stopped(Exception):
+    """The run is being stopped (SIGTERM, SIGHUP or SIGINT to this process)."""
+
+
+def _stop(signum, frame):
+    raise Stopped(signal.Signals(signum).name)
+
+
 def run_tests(argv: list[str], limit_s: float) -> int:
-    """pytest's exit status; at ``limit_s`` its process group is killed and it is a time-out (1)."""
+    """pytest's exit status; at ``limit_s`` its process group is killed and it is a time-out (1).
+    A stop signal kills the group too and raises :class:`Stopped`: pytest runs in a session of
+    its own (its daemons with it), which a signal to the run's process group does not reach."""
     proc = subprocess.Popen(argv, start_new_session=True)
+    previous = {s: signal.signal(s, _stop) for s in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT)}
     try:
         return proc.wait(timeout=limit_s)
     except subprocess.TimeoutExpired:
@@ -62,6 +73,13 @@ def run_tests(argv: list[str], limit_s: float) -> int:
         proc.wait()
         print(f"{TIMED_OUT}: the tests ran past {limit_s:.0f} s", flush=True)
         return 1
+    except Stopped:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+        raise
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 def link_warm(warm: Path, dest: Path) -> None:
@@ -72,6 +90,9 @@ def link_warm(warm: Path, dest: Path) -> None:
 def main() -> int:
     try:
         return run()
+    except Stopped as stop:  # (not a verdict: run.py drops it, and --resume runs the mutant again)
+        print(TOOL_ERROR, f"stopped by {stop}", flush=True)
+        return 99
     except Exception:  # (only the tool's own failures: pytest runs in a subprocess)
         print(TOOL_ERROR, traceback.format_exc(), flush=True)
         return 99

@@ -290,6 +290,7 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
                       or result.test_outcome == TestOutcome.SURVIVED)]
     with sqlite3.connect(db) as con:
         con.executemany("DELETE FROM work_results WHERE job_id = ?", [(j,) for j in again])
+        con.execute("DELETE FROM work_results WHERE output LIKE ?", (f"%{TOOL_ERROR}%",))  # (a stopped one: no verdict)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         pending = sum(1 for _ in work_db.pending_work_items)  # a stopped run's unfinished ones too
     print(f"{name}: resuming in {tree}, {pending} mutants to run", flush=True)

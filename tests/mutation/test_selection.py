@@ -4,15 +4,17 @@ warm kernels. (This runs no mutant: cosmic-ray starts only from tests/mutation/r
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 from pathlib import Path
 
 import pytest
 
-from mutant_tests import TIMED_OUT, link_warm, run_tests
+from mutant_tests import TIMED_OUT, Stopped, link_warm, run_tests
 from selection import changed_lines, kernel_closure, line_kinds, select_tests, lines_to_tests
 
 
@@ -178,6 +180,27 @@ def test_tests_past_their_time_limit_are_a_time_out_and_leave_no_process_behind(
             os.kill(child, 0)
             time.sleep(0.05)
     assert run_tests([sys.executable, "-c", "import sys; sys.exit(3)"], limit_s=30.0) == 3
+
+
+def test_a_stop_signal_kills_the_tests_process_group_and_is_no_verdict(tmp_path):
+    """Stopping a run (SIGTERM to the test command) kills the tests' own session — a daemon the
+    tests started goes too — and raises Stopped, which the command reports as a tool error (not
+    a kill): the mutant runs again on --resume."""
+    pid_file = tmp_path / "child.pid"
+    hang = ("import subprocess, sys, time; p = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(60)']); "
+            f"open({str(pid_file)!r}, 'w').write(str(p.pid)); time.sleep(60)")
+    timer = threading.Timer(1.0, lambda: (pid_file.exists() or time.sleep(2), os.kill(os.getpid(), signal.SIGTERM)))
+    before = signal.getsignal(signal.SIGTERM)
+    timer.start()
+    with pytest.raises(Stopped, match="SIGTERM"):
+        run_tests([sys.executable, "-c", hang], limit_s=60.0)
+    timer.join()
+    assert signal.getsignal(signal.SIGTERM) is before  # (restored)
+    child = int(pid_file.read_text())
+    with pytest.raises(ProcessLookupError):
+        for _ in range(100):
+            os.kill(child, 0)
+            time.sleep(0.05)
 
 
 def test_a_targets_test_arguments_keep_their_options_and_lose_only_missing_files(tmp_path):
