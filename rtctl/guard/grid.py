@@ -76,7 +76,8 @@ class Grid:
         return bool(near) and self._segment_free(x, self._goal_here)
 
     def heuristic(self, key) -> float:
-        """Admissible and consistent for unit steps: goal nodes lie within h of the goal per axis."""
+        """max(0, Σ_J |x − goal|/h − |J|): admissible and consistent for unit steps (goal nodes lie
+        within h of the goal per axis, and a step changes the sum by at most 1); 0 on a goal node."""
         gap = np.abs(self.point(key)[self.joints] - self.goal[self.joints]) / self.h
         return max(0.0, float(gap.sum()) - len(key))
 
