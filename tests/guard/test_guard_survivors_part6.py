@@ -12,13 +12,14 @@ check's first face of each piece (a face of another piece let the first tick ski
 route of just its start, a route's length, a plan from a start inside a zone, a trajectory
 exactly on its limits, the first joint named past two limits at once, a route's trajectory
 starting at t = 0 by default, the per-tick report's zone, face and piece, a zone and a limit
-band entered at the same point (the zone is named), and the first of two equally close zones."""
+band entered at the same point (the zone is named), the first of two equally close zones, the
+grid's heuristic, and a polygon's size along the axes."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from rtctl.guard import Box, Scene, Zone
+from rtctl.guard import Box, Polygon, Scene, Zone
 from rtctl.guard.kernels import DAMPING, N_PARAMS, STIFFNESS, _push_out
 from rtctl.trajectory import JointLimits
 from rtctl.trajectory.planning import hold
@@ -219,8 +220,6 @@ def test_a_vanishing_margin_does_not_empty_a_zones_shape(margin):
     """``inflated_shape`` (planning and plots): the piece grown by the margin. GEOS returns an
     empty polygon when buffering by a tiny distance (1e-300 here): a margin that small must still
     give the piece itself — the triangle of area ½ and the unit box."""
-    from rtctl.guard import Polygon
-
     scene = Scene([Zone("tri", [Polygon((0, 1), [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]])]),
                    Zone("box", [Box((0, 1), [2.0, 2.0], [3.0, 3.0])])], [-5.0, -5.0], [5.0, 5.0])
     bounds = (-5.0, -5.0, 5.0, 5.0)
@@ -365,3 +364,23 @@ def test_a_point_as_close_to_two_zones_names_the_first_declared():
     assert clearance(*scene.tables(), np.array([1.0, 0.0])) == (0.5, 0)
     hit = trajectory_violation(scene, hold([1.0, 0.0]), 0.6, [1.0, 1.0])
     assert hit is not None and hit.what == "A"
+
+
+def test_the_grids_heuristic_is_the_documented_sum_and_zero_near_the_goal():
+    """``Grid.heuristic``: max(0, Σ|x − goal|/h − |J|) over the searched joints. Start 0, goal
+    (0.95, 0.3, 0) with h = 0.1 over joints (0, 1, 2): at the start 9.5 + 3 − 3 = 9.5; at key
+    (9, 3, 0), 0.05 from the goal, the sum is 0.5 − 3 < 0: the heuristic is 0, not less."""
+    from rtctl.guard.grid import Grid
+
+    scene = Scene([Zone("cube", [Box((0, 1, 2), [0.4, -1.0, -1.0], [0.5, 1.0, 1.0])])], [-2.0] * 3, [2.0] * 3)
+    grid = Grid(scene.tables(), np.zeros(3), [0.95, 0.3, 0.0], (0, 1, 2), 0.1, 0.0, [-2.0] * 3, [2.0] * 3)
+    assert grid.heuristic((0, 0, 0)) == pytest.approx(9.5, abs=1e-12)
+    assert grid.heuristic((9, 3, 0)) == 0.0
+
+
+def test_a_polygon_along_the_diagonal_is_measured_by_its_extent_along_the_axes():
+    """The degeneracy test's size is max|v| plus the polygon's largest extent along an axis: for
+    (0, 0), (1, 1), (1, 1 + 4·10⁻¹²) that is ≈ 2, and the area 2·10⁻¹² is below 10⁻¹²·2²: refused
+    as flat, though each vertex's two coordinates are within 4·10⁻¹² of each other."""
+    with pytest.raises(ValueError, match="no area"):
+        Polygon((0, 1), [[0.0, 0.0], [1.0, 1.0], [1.0, 1.0 + 4e-12]])
