@@ -34,7 +34,7 @@ class Violation:
         joints in degrees, as a command asked in degrees answers."""
         q = f"q = {format_q(self.q, deg)}" + ("" if deg is None else " deg")
         if self.what.endswith(" limit"):
-            return f"past the {self.what} at {q}"
+            return f"{'past' if self.at is None else 'goes past'} the {self.what} at {q}"
         if self.at is None:
             return f"{'inside' if self.inside else 'within the margin of'} zone {self.what!r} at {q}"
         return f"{'enters' if self.inside else 'comes within the margin of'} zone {self.what!r} at {q}"

@@ -99,6 +99,6 @@ def retarget_around(scene: Scene, t: float, q, qd, qdd, waypoints, limits: Joint
     trajectory = retarget(t, q, qd, qdd, route.points[1:], limits, duration=duration)
     hit = trajectory_violation(scene, trajectory, 0.5 * _clearance(route, scene), limits.v_max)
     if hit is not None:
-        raise GuardError(f"from the current motion the move would come {hit.describe(deg)} at t = {hit.at:.3f} s: "
+        raise GuardError(f"from the current motion the move {hit.describe(deg)} at t = {hit.at:.3f} s: "
                          "wait until the robot is at rest")
     return trajectory, route
