@@ -1,10 +1,13 @@
 """Tests for guard mutants that survived the full run's fast pass after part6 (docs/testing.md),
 each against the documentation or a value worked out by hand: the grid search ends at a node
-within one step of the goal, and the clamp pushes along the faces of the piece it found — not
-along another zone's."""
+within one step of the goal, the clamp pushes along the faces of the piece it found — not
+along another zone's —, a move from a moving state that would come within half the margin is
+refused (and says so in words), a trajectory "goes past" a limit, the shortcut from the start,
+limits that are not vectors, and the depth of a scene without zones."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from rtctl.guard import Box, Scene, Zone
 
@@ -41,3 +44,57 @@ def test_the_clamp_pushes_along_the_faces_of_the_zone_it_found_only():
     command.tau_ff[:] = [-50.0, 0.0]
     assert g.check(0.0, state, command) == GuardVerdict.MODIFIED
     np.testing.assert_allclose(command.tau_ff, [-250.0, 0.0], rtol=1e-12)
+
+
+def test_a_move_from_a_moving_state_that_would_come_within_half_the_margin_is_refused():
+    """``retarget_around``: the trajectory from the current motion must keep half the margin
+    (0.1 here), else the move is refused, saying so. From (0, −0.8) moving at 0.4 rad/s towards
+    the box [−0.5, 0.5]² and asked to (1.5, −0.8), the retarget swings up to 0.067 from the box
+    (measured by sampling it 200 001 times) — outside the box, inside half the margin."""
+    from rtctl.errors import GuardError
+    from rtctl.guard.motion import retarget_around
+    from rtctl.trajectory import JointLimits
+
+    scene = Scene([Zone("box", [Box((0, 1), [-0.5, -0.5], [0.5, 0.5])])], [-3.0, -3.0], [3.0, 3.0], margin=0.2)
+    with pytest.raises(GuardError) as e:
+        retarget_around(scene, 0.0, np.array([0.0, -0.8]), np.array([0.0, 0.4]), np.zeros(2), [[1.5, -0.8]],
+                        JointLimits([1.0, 1.0], [1.0, 1.0]))
+    assert str(e.value).startswith("from the current motion the move comes within the margin of zone 'box' at q = ")
+    assert str(e.value).endswith("wait until the robot is at rest")
+
+
+def test_a_trajectory_goes_past_a_limit_and_a_point_is_past_it():
+    """``Violation.describe``: a point is "past the … limit", a trajectory or a segment "goes past" it."""
+    from rtctl.guard.feasibility import Violation
+
+    assert Violation("elbow limit", np.array([3.5, 0.0])).describe() == "past the elbow limit at q = [3.5, 0]"
+    assert Violation("elbow limit", np.array([3.5, 0.0]), 0.25).describe() == "goes past the elbow limit at q = [3.5, 0]"
+
+
+def test_shortcut_jumps_from_the_start_only_as_far_as_it_sees():
+    """``shortcut``: from each kept point, jump to the farthest later point in sight. p0 sees
+    only p1, p1 sees p3: [p0, p1, p3] — every kept segment in sight."""
+    from rtctl.guard.grid import shortcut
+
+    points = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]])
+    blocked = {(0, 2), (0, 3)}
+
+    def free(a, b):
+        return (int(a[0]), int(b[0])) not in blocked
+
+    np.testing.assert_array_equal(shortcut(points, free), points[[0, 1, 3]])
+
+
+def test_limits_that_are_not_one_row_of_joint_values_are_refused():
+    """A Scene's q_min and q_max: one value per joint each (a 1 × 1 array is not a vector)."""
+    with pytest.raises(ValueError, match="q_min < q_max, one per joint"):
+        Scene([], [[0.0]], [1.0])
+
+
+def test_the_depth_of_a_scene_without_zones_is_infinite():
+    """``Scene.depth``: (smallest piece depth, that piece) — with no pieces (+∞, −1), as the
+    compiled ``clearance`` says."""
+    from rtctl.guard.kernels import clearance
+
+    scene = Scene([], [-1.0, -1.0], [1.0, 1.0])
+    assert scene.depth(np.zeros(2)) == (np.inf, -1) == clearance(*scene.tables(), np.zeros(2))
