@@ -101,9 +101,9 @@ def load_table(path) -> EventTable:
     cyclic = t.bool("cyclic", True)
     gates = _names(t, "gates")
     actuators = _names(t, "actuators")
-    if set(gates) & set(actuators):
-        shared = ", ".join(map(repr, sorted(set(gates) & set(actuators))))
-        raise t.error("actuators", f"names different from the gates' (both: {shared})")
+    shared = sorted(set(gates) & set(actuators))
+    if shared:
+        raise t.error("actuators", f"names different from the gates' (both: {', '.join(map(repr, shared))})")
     if len(gates) > MAX_GATES:
         raise t.error("gates", f"at most {MAX_GATES} gates (the circuit's PLA has gates + flip-flops ≤ 16 inputs)")
     outputs = _outputs(t.table("outputs"), len(actuators))
