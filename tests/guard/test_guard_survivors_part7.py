@@ -3,7 +3,8 @@ each against the documentation or a value worked out by hand: the grid search en
 within one step of the goal, the clamp pushes along the faces of the piece it found — not
 along another zone's —, a move from a moving state that would come within half the margin is
 refused (and says so in words), a trajectory "goes past" a limit, the shortcut from the start,
-limits that are not vectors, and the depth of a scene without zones."""
+limits that are not vectors, the depth of a scene without zones, and a zone without a name or
+without a part."""
 from __future__ import annotations
 
 import numpy as np
@@ -98,3 +99,11 @@ def test_the_depth_of_a_scene_without_zones_is_infinite():
 
     scene = Scene([], [-1.0, -1.0], [1.0, 1.0])
     assert scene.depth(np.zeros(2)) == (np.inf, -1) == clearance(*scene.tables(), np.zeros(2))
+
+
+@pytest.mark.parametrize("name, parts", [("", "box"), ("z", ())])
+def test_a_zone_needs_both_a_name_and_a_part(name, parts):
+    """``Zone``: a name and at least one Box or Polygon part — either missing is refused."""
+    parts = (Box((0, 1), [0.0, 0.0], [1.0, 1.0]),) if parts == "box" else parts
+    with pytest.raises(ValueError, match="a zone needs a name and at least one Box or Polygon part"):
+        Zone(name, parts)
