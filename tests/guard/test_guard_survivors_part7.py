@@ -3,8 +3,9 @@ each against the documentation or a value worked out by hand: the grid search en
 within one step of the goal, the clamp pushes along the faces of the piece it found — not
 along another zone's —, a move from a moving state that would come within half the margin is
 refused (and says so in words), a trajectory "goes past" a limit, the shortcut from the start,
-limits that are not vectors, the depth of a scene without zones, and a zone without a name or
-without a part."""
+limits that are not vectors, the depth of a scene without zones, a zone without a name or
+without a part, a straight plan's expansions, a box's bounds per joint, and a large polygon's
+repeated vertex."""
 from __future__ import annotations
 
 import numpy as np
@@ -107,3 +108,27 @@ def test_a_zone_needs_both_a_name_and_a_part(name, parts):
     parts = (Box((0, 1), [0.0, 0.0], [1.0, 1.0]),) if parts == "box" else parts
     with pytest.raises(ValueError, match="a zone needs a name and at least one Box or Polygon part"):
         Zone(name, parts)
+
+
+def test_a_straight_plan_expands_no_grid_node():
+    """``Plan.expanded``: grid nodes expanded — a plan whose straight segment is clear expands none."""
+    from rtctl.guard.planner import plan_path
+
+    plan = plan_path(Scene([], [-1.0, -1.0], [1.0, 1.0]), [0.0, 0.0], [0.5, 0.0])
+    assert plan.method == "straight" and plan.expanded == 0
+
+
+@pytest.mark.parametrize("lo, hi", [([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]), ([0.0], [1.0])])
+def test_a_box_needs_one_lower_and_one_upper_bound_per_joint(lo, hi):
+    """``Box`` over two joints: two lower and two upper bounds — three (or one) of each is refused."""
+    with pytest.raises(ValueError, match="a box over 2 joints needs 2 lower and upper bounds"):
+        Box((0, 1), lo, hi)
+
+
+def test_a_large_polygon_with_a_vertex_repeated_within_its_rounding_is_refused():
+    """The repeated-vertex test is relative to the polygon's size (edge ≤ 10⁻¹²·scale): a square
+    1000 rad wide (scale 2000) with a vertex repeated 10⁻¹⁰ away (below 2·10⁻⁹) is refused."""
+    from rtctl.guard import Polygon
+
+    with pytest.raises(ValueError, match="repeated vertex"):
+        Polygon((0, 1), [[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [1000.0 - 1e-10, 1000.0], [0.0, 1000.0]])
