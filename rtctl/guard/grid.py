@@ -34,9 +34,12 @@ class Grid:
         self.start, self.goal = np.array(start, float), np.array(goal, float)
         self.joints = np.asarray(joints, dtype=np.int64)
         self.h, self.margin = float(h), float(margin)
-        origin = self.start[self.joints]
-        self.k_lo = np.ceil((np.asarray(lo, float) - origin) / self.h - 1e-9).astype(int)
-        self.k_hi = np.floor((np.asarray(hi, float) - origin) / self.h + 1e-9).astype(int)
+        origin, lo, hi = self.start[self.joints], np.asarray(lo, float), np.asarray(hi, float)
+        self.k_lo = np.ceil((lo - origin) / self.h - 1e-9).astype(int)
+        self.k_hi = np.floor((hi - origin) / self.h + 1e-9).astype(int)
+        # the tolerance keeps a node that lies on a limit up to rounding; one computed past it goes
+        self.k_lo += origin + self.k_lo * self.h < lo
+        self.k_hi -= origin + self.k_hi * self.h > hi
         self._free: dict[tuple, bool] = {}
         self._goal_here = self.start.copy()  # the goal's J values on the grid's plane through the start
         self._goal_here[self.joints] = self.goal[self.joints]

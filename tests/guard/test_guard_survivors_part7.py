@@ -4,8 +4,8 @@ within one step of the goal, the clamp pushes along the faces of the piece it fo
 along another zone's —, a move from a moving state that would come within half the margin is
 refused (and says so in words), a trajectory "goes past" a limit, the shortcut from the start,
 limits that are not vectors, the depth of a scene without zones, a zone without a name or
-without a part, a straight plan's expansions, a box's bounds per joint, and a large polygon's
-repeated vertex."""
+without a part, a straight plan's expansions, a box's bounds per joint, a large polygon's
+repeated vertex, and grid nodes that rounding would put past a limit."""
 from __future__ import annotations
 
 import numpy as np
@@ -132,3 +132,18 @@ def test_a_large_polygon_with_a_vertex_repeated_within_its_rounding_is_refused()
 
     with pytest.raises(ValueError, match="repeated vertex"):
         Polygon((0, 1), [[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [1000.0 - 1e-10, 1000.0], [0.0, 1000.0]])
+
+
+def test_every_grid_node_lies_within_the_limits_even_when_rounding_would_put_one_past():
+    """The grid's nodes are start + k·h within the limits. From q₁ = 10⁻¹⁵ with h = 0.2 and
+    |q₁| ≤ 1, the node k = 5 computes to 1 + 10⁻¹⁵ — past the limit — so the grid stops at k = 4
+    (property testing found a plan through that node refused by the planner's own check); from
+    −10⁻¹⁵ the same at the lower limit; nodes exactly on the limits (from q₁ = 0) are kept."""
+    from rtctl.guard.grid import Grid
+
+    scene = Scene([], [-1.0] * 3, [1.0] * 3)
+    for q1, extent in ((1e-15, (-5, 4)), (-1e-15, (-4, 5)), (0.0, (-5, 5))):
+        grid = Grid(scene.tables(), [0.0, q1, 0.0], [1.0, 1.0, 0.0], (0, 1, 2), 0.2, 0.0, [-1.0] * 3, [1.0] * 3)
+        assert (grid.k_lo[1], grid.k_hi[1]) == extent
+        for k in range(int(grid.k_lo[1]), int(grid.k_hi[1]) + 1):
+            assert -1.0 <= grid.point((0, k, 0))[1] <= 1.0
