@@ -34,12 +34,9 @@ class Grid:
         self.start, self.goal = np.array(start, float), np.array(goal, float)
         self.joints = np.asarray(joints, dtype=np.int64)
         self.h, self.margin = float(h), float(margin)
-        origin, lo, hi = self.start[self.joints], np.asarray(lo, float), np.asarray(hi, float)
-        self.k_lo = np.ceil((lo - origin) / self.h - 1e-9).astype(int)
-        self.k_hi = np.floor((hi - origin) / self.h + 1e-9).astype(int)
-        # the tolerance keeps a node that lies on a limit up to rounding; one computed past it goes
-        self.k_lo += origin + self.k_lo * self.h < lo
-        self.k_hi -= origin + self.k_hi * self.h > hi
+        origin, self.lo, self.hi = self.start[self.joints], np.asarray(lo, float), np.asarray(hi, float)
+        self.k_lo = np.ceil((self.lo - origin) / self.h - 1e-9).astype(int)
+        self.k_hi = np.floor((self.hi - origin) / self.h + 1e-9).astype(int)
         self._free: dict[tuple, bool] = {}
         self._goal_here = self.start.copy()  # the goal's J values on the grid's plane through the start
         self._goal_here[self.joints] = self.goal[self.joints]
@@ -49,8 +46,10 @@ class Grid:
         return (0,) * len(self.joints)
 
     def point(self, key) -> np.ndarray:
+        """start + key·h over J — a node that the tolerance of k_lo/k_hi keeps on a limit lies on
+        it, not a rounding past it (start 1e-15, h = 0.2: node 5 is 1, not 1 + 1e-15)."""
         x = self.start.copy()
-        x[self.joints] += np.asarray(key) * self.h
+        x[self.joints] = np.clip(x[self.joints] + np.asarray(key) * self.h, self.lo, self.hi)
         return x
 
     def _segment_free(self, a, b) -> bool:

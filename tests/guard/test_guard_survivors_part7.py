@@ -135,15 +135,17 @@ def test_a_large_polygon_with_a_vertex_repeated_within_its_rounding_is_refused()
 
 
 def test_every_grid_node_lies_within_the_limits_even_when_rounding_would_put_one_past():
-    """The grid's nodes are start + k·h within the limits. From q₁ = 10⁻¹⁵ with h = 0.2 and
-    |q₁| ≤ 1, the node k = 5 computes to 1 + 10⁻¹⁵ — past the limit — so the grid stops at k = 4
-    (property testing found a plan through that node refused by the planner's own check); from
-    −10⁻¹⁵ the same at the lower limit; nodes exactly on the limits (from q₁ = 0) are kept."""
+    """The grid's nodes are start + k·h within the limits, a node a whole number of steps from a
+    limit on it. From q₁ = 10⁻¹⁵ with h = 0.2 and |q₁| ≤ 1, node 5 computed to 1 + 10⁻¹⁵ — past
+    the limit (property testing found a plan through it refused by the planner's own check): it
+    is the limit itself, and so at the lower limit from −10⁻¹⁵ and on both from 0."""
     from rtctl.guard.grid import Grid
 
     scene = Scene([], [-1.0] * 3, [1.0] * 3)
-    for q1, extent in ((1e-15, (-5, 4)), (-1e-15, (-4, 5)), (0.0, (-5, 5))):
+    for q1, ends in ((1e-15, (-1.0 + 1e-15, 1.0)), (-1e-15, (-1.0, 1.0 - 1e-15)), (0.0, (-1.0, 1.0))):
         grid = Grid(scene.tables(), [0.0, q1, 0.0], [1.0, 1.0, 0.0], (0, 1, 2), 0.2, 0.0, [-1.0] * 3, [1.0] * 3)
-        assert (grid.k_lo[1], grid.k_hi[1]) == extent
-        for k in range(int(grid.k_lo[1]), int(grid.k_hi[1]) + 1):
-            assert -1.0 <= grid.point((0, k, 0))[1] <= 1.0
+        assert (grid.k_lo[1], grid.k_hi[1]) == (-5, 5)
+        nodes = [grid.point((0, k, 0))[1] for k in range(-5, 6)]
+        assert all(-1.0 <= x <= 1.0 for x in nodes), nodes
+        assert (nodes[0], nodes[-1]) == pytest.approx(ends, abs=1e-15)
+        assert (1.0 in nodes, -1.0 in nodes) == (q1 >= 0, q1 <= 0)  # on a limit exactly, not past it
