@@ -56,8 +56,9 @@ def synthetic_table(kind: str, n_states: int, n_gates: int, seed: int = 0) -> st
 
 
 def _euler_circuit(n: int) -> list[int]:
-    """States 1…n in an order that takes every ordered pair once and closes on the first
-    (Hierholzer's algorithm; every state has n − 1 ways in and out)."""
+    """States 1…n in an order that takes every ordered pair once and closes on the first:
+    Hierholzer's circuit from state 1, taking the smallest state not yet gone to first (every
+    state has n − 1 ways in and out)."""
     left = {s: [t for t in range(n, 0, -1) if t != s] for s in range(1, n + 1)}
     stack, circuit = [1], []
     while stack:
