@@ -1,9 +1,10 @@
 """How much of a failure the leg compiler's reports show (docs/leg_automaton.md): the compile
-report lists the first five mismatches of the agreement check and ``replay`` keeps the first
-five failing orders of each row, while every count stays complete. Checked with a circuit
-whose every function is empty: it never switches and drives no actuator, so it disagrees with
-Table 3's automaton on all 6 × 256 (state, gate vector) pairs and fails every order of step 10
-(five gates change: 120 orders)."""
+report lists the first five mismatches of the agreement check and the first five failures of
+the race proof, and ``replay`` keeps the first five failing orders of each row, while every
+count stays complete. Checked with a circuit whose every function is empty: it never switches
+and drives no actuator, so it disagrees with Table 3's automaton on all 6 × 256 (state, gate
+vector) pairs, fails the race proof on its 8 exits and every order of step 10 (five gates
+change: 120 orders)."""
 from itertools import permutations
 
 from rtctl.logic import CircuitModel
@@ -25,6 +26,16 @@ def test_the_compile_report_lists_the_first_five_mismatches_and_counts_them_all(
     shown = [line for line in lines if line.startswith("    mismatch: ")]
     assert shown == [f"    mismatch: {m}" for m in agree["mismatches"][:5]]
     assert "1536 MISMATCHES" in "\n".join(lines)
+
+
+def test_the_compile_report_lists_the_first_five_race_failures_and_counts_them_all(circuit):
+    """The never-switching circuit stays on its code: the race proof fails on Table 3's 8 exits."""
+    model = _never_switching(circuit)
+    race = race_proof(circuit, model)
+    assert len(race.failures) == 8
+    lines = format_compile(circuit, agreement(circuit, model), race).splitlines()
+    assert [line for line in lines if line.startswith("    race: ")] == [f"    race: {f}" for f in race.failures[:5]]
+    assert "8 FAILURES" in "\n".join(lines)
 
 
 def test_replay_keeps_the_first_five_failing_orders_of_a_row(table3, circuit):
