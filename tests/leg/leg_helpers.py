@@ -58,3 +58,17 @@ def pattern_prefix(seq) -> int:
     while n < len(seq) and seq[n] == PATTERN[n % len(PATTERN)]:
         n += 1
     return n
+
+
+def one_jump_circuit(table, circuit):
+    """Table 3's circuit synthesised again with 1 → 2 taken in one jump (000 → 110) instead of
+    its route: under 1 → 2's gate vector state 1's code excites Q1 and Q2 at once."""
+    from rtctl.logic.assign import Assignment
+    from rtctl.logic.flow import flow_table
+    from rtctl.logic.synth import synthesise
+
+    a = circuit.assignment
+    routes = dict(a.routes)
+    key = next(k for k, p in routes.items() if k[0] == 1 and a.state_of(p[-1]) == 2)
+    routes[key] = (a.codes[1], a.codes[2])
+    return synthesise(flow_table(table), Assignment(3, a.codes, routes))

@@ -19,16 +19,13 @@ a brute-force evaluation or a case worked out by hand:
   failing order with its reason;
 * the compile report lists the mismatches the agreement check found.
 """
-from pathlib import Path
 
 import pytest
 
+from leg_helpers import one_jump_circuit
 from rtctl.logic import CircuitModel, compile_table, load_table
-from rtctl.logic.assign import Assignment
-from rtctl.logic.flow import flow_table
 from rtctl.logic.pla import Pla
 from rtctl.logic.report import format_compile, format_replay
-from rtctl.logic.synth import synthesise
 from rtctl.logic.verify import RaceReport, agreement, race_proof, replay
 
 
@@ -96,11 +93,7 @@ def _choices_by_brute_force(circuit, model):
 
 def test_the_cases_with_a_choice_of_order_agree_with_brute_force(table3, circuit):
     """State 1 → 2 (000 → 110) planted as one jump: two flip-flops excited at once."""
-    a = circuit.assignment
-    routes = dict(a.routes)
-    key = next(k for k, p in routes.items() if k[0] == 1 and a.state_of(p[-1]) == 2)
-    routes[key] = (a.codes[1], a.codes[2])
-    bad = synthesise(flow_table(table3), Assignment(3, a.codes, routes))
+    bad = one_jump_circuit(table3, circuit)
     model = CircuitModel.from_pla(bad.pla, 8, 3)
     expected = _choices_by_brute_force(bad, model)
     assert expected > 0

@@ -38,16 +38,16 @@ import re
 import numpy as np
 import pytest
 
-from leg_helpers import TABLE3
+from leg_helpers import TABLE3, one_jump_circuit
 from rtctl.errors import ConfigError
 from rtctl.logic import CircuitModel, Emulator, Pla, compile_table, load_table
-from rtctl.logic.assign import Assignment, candidate_assignments
+from rtctl.logic.assign import candidate_assignments
 from rtctl.logic.emulate import NOT_SETTLED
 from rtctl.logic.flow import flow_table
 from rtctl.logic.guard import firing_masks, guard_automaton
 from rtctl.logic.qm import minimise
 from rtctl.logic.report import format_compile, format_replay
-from rtctl.logic.synth import DONT_CARE, excitation, synthesise
+from rtctl.logic.synth import DONT_CARE, excitation
 from rtctl.logic.synthetic import KINDS, state_sequence, synthetic_table
 from rtctl.logic.verify import agreement, race_proof, replay
 
@@ -299,11 +299,7 @@ def test_table_3s_race_proof_finds_no_choice_of_order(circuit, model):
 def test_a_two_bit_jump_gives_the_race_proof_a_choice_of_order(table3, circuit):
     """The chosen codes with 1 → 2 (000 → 110) taken in one jump: under 1 → 2's gate vector
     state 1's code excites Q1 and Q2 at once, a choice of order (and a critical race)."""
-    a = circuit.assignment
-    routes = dict(a.routes)
-    key = next(k for k, p in routes.items() if k[0] == 1 and a.state_of(p[-1]) == 2)
-    routes[key] = (a.codes[1], a.codes[2])
-    bad = synthesise(flow_table(table3), Assignment(3, a.codes, routes))
+    bad = one_jump_circuit(table3, circuit)
     report = race_proof(bad, CircuitModel.from_pla(bad.pla, 8, 3))
     assert report.races >= 1 and not report.ok
 

@@ -6,13 +6,10 @@ import re
 import numpy as np
 from hypothesis import given, settings, strategies as st
 
-from leg_helpers import TABLE3, rtctl
+from leg_helpers import TABLE3, one_jump_circuit, rtctl
 from rtctl.logic import CircuitModel, Emulator, Pla, compile_table, load_table
-from rtctl.logic.assign import Assignment
 from rtctl.logic.emulate import NOT_SETTLED
-from rtctl.logic.flow import flow_table
 from rtctl.logic.qm import evaluate, minimise
-from rtctl.logic.synth import synthesise
 from rtctl.logic.verify import race_proof, replay
 
 
@@ -56,15 +53,12 @@ def test_three_flip_flops_and_no_critical_race(circuit, model):
 def test_race_proof_finds_a_critical_race(table3, circuit):
     """The chosen codes with 1 → 2 (000 → 110) taken in one jump: Q1 and Q2 race, and if Q2
     wins the circuit lands on 010, state 5's code, which holds on that gate vector."""
-    a = circuit.assignment
-    routes = dict(a.routes)
-    key = next(k for k, p in routes.items() if k[0] == 1 and a.state_of(p[-1]) == 2)
-    routes[key] = (a.codes[1], a.codes[2])
-    bad = synthesise(flow_table(table3), Assignment(3, a.codes, routes))
+    bad = one_jump_circuit(table3, circuit)
     report = race_proof(bad, CircuitModel.from_pla(bad.pla, 8, 3))
     assert not report.ok
     failure = next(f for f in report.failures if f["state"] == 1)
-    assert a.codes[5] in failure["finals"] and a.codes[2] in failure["finals"]
+    codes = circuit.assignment.codes
+    assert codes[5] in failure["finals"] and codes[2] in failure["finals"]
 
 
 def _expected_functions(table, a):
