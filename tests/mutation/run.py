@@ -231,15 +231,17 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
     config, db = tree / "cosmic-ray.toml", tree / "session.sqlite"
     if not db.exists():
         raise SystemExit(f"{name}: no run to resume in {tree}")
+    with use_db(str(db), WorkDB.Mode.open) as work_db:
+        elsewhere = {m.module_path for item in work_db.work_items for m in item.mutations
+                     if not m.module_path.is_relative_to(tree)}
+    if elsewhere:  # (a moved work directory: cosmic-ray would plant the mutants in the old copy)
+        raise SystemExit(f"{name}: the run's mutants are in files outside {tree}, e.g. {min(elsewhere)}")
     export_tree(tree, rev)
     tests = _write_config(name, tree, config)
     for module, n in renew_moved_mutants(config, db, tree).items():
         print(f"{name}: {module} changed since its mutants were made: its {n} mutants are made again", flush=True)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         items = list(work_db.work_items)
-        elsewhere = {m.module_path for item in items for m in item.mutations if not m.module_path.is_relative_to(tree)}
-        if elsewhere:  # (a moved work directory: cosmic-ray would plant the mutants in the old copy)
-            raise SystemExit(f"{name}: the run's mutants are in files outside {tree}, e.g. {min(elsewhere)}")
         total = sum(all(plausible(m.operator_name) for m in item.mutations) for item in items)
         again = [item.job_id for item, result in work_db.completed_work_items
                  if all(plausible(m.operator_name) for m in item.mutations)
