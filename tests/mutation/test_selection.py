@@ -221,6 +221,7 @@ def test_a_resumed_run_makes_the_mutants_of_a_module_whose_sites_moved_again(tmp
     mutation sites, its recorded mutants name other sites. ``renew_moved_mutants`` makes that
     module's mutants again, as never run, and keeps the results of a module whose sites stayed
     (here one whose edit is inside a string)."""
+    pytest.importorskip("cosmic_ray", reason="the mutation extra (pip install -e '.[mutation]') is not installed")
     from cosmic_ray.work_db import WorkDB, use_db
     from cosmic_ray.work_item import TestOutcome, WorkerOutcome, WorkResult
     from run import CR, renew_moved_mutants
