@@ -8,7 +8,8 @@ documentation, docs/leg_automaton.md or a property worked out by hand:
   a name using every one of those characters is accepted; an empty array, an empty name, a
   name with a space or a hyphen, and a name that is not a string are refused, naming the key;
 * a name used for a gate and an actuator is refused, the message naming every such name;
-* an ``[outputs]`` key that is not a number is a configuration error, not a crash;
+* an ``[outputs]`` key that is not a number, or ``rows`` that are not an array, is a
+  configuration error, not a crash;
 * two conflicting rows: the message gives the next state each row says;
 * the PLA's inputs are the gates then the flip-flops Q1…Qb (rtctl.logic.synth's module doc);
 * gates + flip-flops at most the minimiser's inputs: exactly as many compiles, one more is
@@ -165,3 +166,15 @@ def test_the_complete_table_loads_with_n_states(tmp_path):
     """Four states, each left for the three others: 12 rows over 4 gates, every state 1…4."""
     table = _load(tmp_path, synthetic_table("complete", 4, 4))
     assert len(table.states) == 12 and sorted(set(table.states)) == [1, 2, 3, 4]
+
+
+@pytest.mark.parametrize("rows", ["5", '"rows"'])
+def test_rows_that_are_not_an_array_are_a_configuration_error(tmp_path, rows):
+    """``rows`` must be an array of at least two rows: a number or a string is refused naming
+    ``rows`` (a number used to reach len() and crash)."""
+    text = _table_text(['"g0"'])
+    start = text.index("rows = [")
+    text = text[:start] + f"rows = {rows}\n" + text[text.index("]\n\n[outputs]") + 2:]
+    with pytest.raises(ConfigError) as e:
+        _load(tmp_path, text)
+    assert e.value.key_path == "rows" and "at least two rows" in e.value.expected, e.value
