@@ -7,7 +7,8 @@ its lines by a diff with the pristine copy. A file outside the kernel closure ge
 unmutated run's compiled kernels, hard-linked under the name of the mutated tree's source hash
 (numba writes its index and data files to a temporary name and renames them, so a link is
 never written through); a file inside it starts from an empty cache. Only the tests that
-executed the mutated lines run, in the suite's order; where coverage cannot tell, all of them.
+executed the mutated lines run; where coverage cannot tell, all of them; either way the quickest
+first (:func:`selection.fastest_first`), as the first failure ends the run.
 
 ``MUTATION_MODE=full`` (the second pass, for every survivor of the first): the target's full
 tests from an empty cache, as a run without this tool would do. A survivor counts only here.
@@ -118,7 +119,8 @@ def run() -> int:
         chosen = select_tests((HERE / "pristine" / rel).read_text(), (tree / rel).read_text(), covered)
         if chosen is not None:
             selected = [t for t in state["order"] if t in chosen]
-    argv = PYTEST + (selected if selected is not None else state["tests"].split())
+    everything = state["tests"].split() if full else state["order"]  # (the fast pass: quickest first)
+    argv = PYTEST + (selected if selected is not None else everything)
     print(f"mutant in {rel}: {'all' if selected is None else len(selected)} tests, "
           f"{'warm' if warm else 'empty'} kernel cache ({'full' if full else 'fast'} pass)", flush=True)
     limit = time_limit(state["seconds"])

@@ -150,7 +150,7 @@ def prepare(name: str, tree: Path, tests: str) -> None:
     test, and keep in ``<tree>/.mutation`` what the test command needs: the pristine files and
     their hashes, the kernel closure, which tests execute each line, and the compiled kernels."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from selection import kernel_closure, lines_to_tests, tree_source_hash
+    from selection import fastest_first, kernel_closure, lines_to_tests, tree_source_hash
 
     tools = tree / TOOLS
     shutil.rmtree(tools, ignore_errors=True)
@@ -169,7 +169,7 @@ def prepare(name: str, tree: Path, tests: str) -> None:
     shutil.rmtree(tree / ".numba", ignore_errors=True)
     started = time.monotonic()
     baseline = subprocess.run(PYTEST.split() + [f"--cov-config={tools / 'coveragerc'}", "--cov", "--cov-context=test",
-                                                "--cov-report="] + tests.split(),
+                                                "--cov-report=", "--durations=0", "--durations-min=0"] + tests.split(),
                               cwd=tree, env=env, capture_output=True, text=True)
     baseline_s = time.monotonic() - started
     if baseline.returncode != 0 or not order:
@@ -184,6 +184,7 @@ def prepare(name: str, tree: Path, tests: str) -> None:
         print(f"{name}: the unmutated run left {[k.name for k in kernels]}, not {expected}: no warm kernels",
               flush=True)
     shutil.rmtree(tree / ".numba", ignore_errors=True)
+    order = fastest_first(order, baseline.stdout)
     covered = lines_to_tests(tools / "coverage", tree, files, order)
     closure = kernel_closure(tree)
     state = {"tests": tests, "seconds": round(baseline_s, 1),

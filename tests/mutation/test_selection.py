@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 from mutant_tests import TIMED_OUT, Stopped, link_warm, run_tests
-from selection import changed_lines, kernel_closure, line_kinds, select_tests, lines_to_tests
+from selection import changed_lines, fastest_first, kernel_closure, line_kinds, lines_to_tests, select_tests
 
 
 def write(root: Path, files: dict[str, str]) -> None:
@@ -252,3 +252,20 @@ def test_a_resumed_run_makes_the_mutants_of_a_module_whose_sites_moved_again(tmp
     sites = "SELECT module_path, operator_name, occurrence, start_pos_row, start_pos_col FROM mutation_specs ORDER BY 1, 2, 3"
     with sqlite3.connect(db) as con, sqlite3.connect(fresh) as ref:
         assert con.execute(sites).fetchall() == ref.execute(sites).fetchall()
+
+
+def test_a_mutants_tests_run_quickest_first_keeping_each_files_tests_together():
+    report = """
+============================== slowest durations ===============================
+3.10s call     tests/test_slow.py::test_long
+0.40s setup    tests/test_slow.py::test_long
+0.20s call     tests/test_fast.py::test_b[1-2]
+0.05s call     tests/test_slow.py::test_short
+0.01s teardown tests/test_fast.py::test_b[1-2]
+(2 durations < 0.005s hidden.  Use -vv to show these durations.)
+"""
+    order = ["tests/test_slow.py::test_long", "tests/test_slow.py::test_short", "tests/test_fast.py::test_a",
+             "tests/test_fast.py::test_b[1-2]", "tests/test_fast.py::test_c"]
+    assert fastest_first(order, report) == [  # test_fast.py: 0.21 s in all, test_slow.py: 3.55 s
+        "tests/test_fast.py::test_a", "tests/test_fast.py::test_c", "tests/test_fast.py::test_b[1-2]",
+        "tests/test_slow.py::test_short", "tests/test_slow.py::test_long"]
