@@ -6,7 +6,10 @@ expectation comes from the documentation, checked by an independent construction
 * at most 8 shortest routes are kept per transition (docs/leg_automaton.md), the first 8 in
   code order — checked against every shortest route enumerated as an order of bit flips;
 * the search uses 3 to 5 flip-flops: 33 states need more than 5 and are refused before any
-  search, 32 are searched with 5.
+  search, 32 are searched with 5;
+* Table 3 compiles to the assignment docs/leg_automaton.md prints, although its two candidates
+  make PLAs of the same size (15 terms, 86 literals): a tie goes to the first in code order;
+* a Berkeley ``.pla`` ends at ``.e``: whatever follows it is not read.
 """
 import itertools
 import tomllib
@@ -14,6 +17,8 @@ from types import SimpleNamespace
 
 import pytest
 
+from leg_helpers import TABLE3
+from rtctl.logic import Pla, compile_table, load_table
 from rtctl.logic.assign import AssignmentError, _shortest_paths, candidate_assignments
 from rtctl.logic.flow import FlowTable
 from rtctl.logic.synthetic import KINDS, synthetic_table
@@ -60,3 +65,22 @@ def test_thirty_three_states_need_more_than_five_flip_flops():
         candidate_assignments(_states_only(33), budget=50)
     found = candidate_assignments(_states_only(32), budget=50)
     assert [bits for bits, _, _ in found.tried] == [5]
+
+
+DOCUMENTED_TABLE3 = {1: "000", 2: "110", 3: "111", 4: "101", 5: "010", 6: "001"}  # Q1 Q2 Q3
+
+
+def test_table3_compiles_to_the_documented_assignment_the_first_of_two_equal_candidates():
+    circuit = compile_table(load_table(TABLE3))
+    a = circuit.assignment
+    assert {s: a.code_str(c) for s, c in a.codes.items()} == DOCUMENTED_TABLE3
+    assert (circuit.pla.n_terms, circuit.pla.n_literals) == (15, 86)
+    assert len(circuit.search.candidates) == 2 and circuit.search.candidates[0] == a
+
+
+def test_a_pla_ends_at_dot_e():
+    text = ".i 2\n.o 1\n.ilb a b\n.ob y\n.type f\n.p 1\n11 1\n.e\n"
+    pla = Pla.from_espresso(text)
+    assert pla.equations() == ["y = a b"]
+    assert Pla.from_espresso(text + "0- 1\n-0 1\n").equations() == ["y = a b"]
+    assert Pla.from_espresso(text + "this is not a product term\n").equations() == ["y = a b"]
