@@ -137,8 +137,8 @@ def _output_names(table: EventTable, nb: int) -> tuple[str, ...]:
 def compile_table(table: EventTable, semantics: str = "exact") -> Circuit:
     """The whole synthesis: flow table, assignment search, excitation, minimisation, PLA;
     the candidate with the smallest PLA (fewest product terms, then literals; a tie goes to the
-    first in code order). A table without
-    a race-free assignment is a :class:`ConfigError` naming its ``rows``."""
+    first in code order). A table without a race-free assignment is a :class:`ConfigError`
+    naming its ``rows``."""
     if semantics not in SEMANTICS:
         raise ValueError(f"semantics must be one of {SEMANTICS}, got {semantics!r}")
     flow = flow_table(table)
