@@ -70,12 +70,13 @@ def _steps(d, compiling: Precompile, activated: list[str], doing):
         np.put(state.position, idx, dev.state.position)
         np.put(state.velocity, idx, dev.state.velocity)
     guarded.check_start(d.cfg, state.position)
-    doing("compiling kernels (a first run)")
-    compiling.wait(stop=lambda: stopping(d))
-    yield
-    doing("loading the compiled kernels")
-    compiling.finish()
-    yield
+    if not compiling.done:  # (a run that loaded every kernel at its start says nothing of compiling)
+        doing("compiling kernels (a first run)")
+        compiling.wait(stop=lambda: stopping(d))
+        yield
+        doing("loading the compiled kernels")
+        compiling.finish()
+        yield
     doing("planning the initial trajectory")
     if d.recorder is not None:  # (started long before: it is normally waiting already)
         d.recorder.wait_ready()

@@ -72,6 +72,11 @@ class Precompile:
         self.started = self.last_line = time.monotonic()  # when it last logged
         self._beat: tuple[threading.Thread, threading.Event] | None = None
 
+    @property
+    def done(self) -> bool:
+        """Every group ran in this process: nothing is left to compile or to load."""
+        return self.loaded == len(self.groups)
+
     def start(self, loading: contextlib.AbstractContextManager | None = None,
               stop: Callable[[], bool] = lambda: False) -> "Precompile":
         """Load what is cached here, then fork the workers for the rest. ``loading`` is

@@ -120,3 +120,22 @@ def test_a_status_during_a_start_up_step_is_answered_then_with_what_the_daemon_d
         assert not seen[name]["ok"] and seen[name]["starting"] == doing, seen
     assert seen["running"]["ok"] and "starting" not in seen["running"], seen
     assert code_seen == 0 and d.stop_reason == "stop requested"
+
+
+def test_a_start_whose_kernels_all_loaded_says_nothing_of_compiling(write_config, tmp_path, monkeypatch):
+    """The kernels are in the cache (this suite compiled them): the start loads them all before
+    its steps, so no step says it compiles or loads them; it does say what it configures."""
+    from rtctl.control_socket.while_starting import ServedWhileStarting
+    steps = []
+    doing = ServedWhileStarting.doing
+    monkeypatch.setattr(ServedWhileStarting, "doing", lambda self, what: (steps.append(what), doing(self, what))[1])
+    cfg = load_config(write_config(BASE))
+    args = SimpleNamespace(telemetry=None, socket=str(tmp_path / "s.sock"), enforce_rt=False, duration=0.05,
+                           summary=None, log_level="error")
+    d = Daemon(cfg, build(cfg), args)
+    d.run()  # a first run of this configuration in the process, to warm the cache: it may compile
+    steps.clear()
+    d = Daemon(cfg, build(cfg), args)
+    assert d.run() == 0
+    assert "configuring sim" in steps and "activating sim" in steps, steps
+    assert not any("kernels" in s for s in steps), steps
