@@ -51,10 +51,10 @@ import time
 from pathlib import Path
 
 from mutant_tests import TIMED_OUT, TOOL_ERROR  # what the test command prints (this script's folder)
+from renewal import CR, renew_moved_mutants
 from targets import TARGETS
 
 ROOT = Path(__file__).resolve().parents[2]
-CR = [sys.executable, "-m", "cosmic_ray.cli"]
 PYTEST = f"{sys.executable} -m pytest -x -q -p no:cacheprovider -p no:randomly -o addopts="
 TOOLS = ".mutation"  # in the copy: the test command, what the unmutated run recorded, the warm kernels
 
@@ -239,7 +239,7 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
         raise SystemExit(f"{name}: the run's mutants are in files outside {tree}, e.g. {min(elsewhere)}")
     export_tree(tree, rev)
     tests = _write_config(name, tree, config)
-    for module, n in renew_moved_mutants(config, db, tree).items():
+    for module, n in renew_moved_mutants(config, db, tree, _env(tree), plausible, tree / TOOLS / "pristine").items():
         print(f"{name}: {module} changed since its mutants were made: its {n} mutants are made again", flush=True)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         items = list(work_db.work_items)
@@ -258,46 +258,6 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
     prepare(name, tree, tests)
     _exec(config, db, tree)
     return report(name, tree, db)
-
-
-def _sites(db: Path) -> dict[str, list]:
-    with sqlite3.connect(db) as con:
-        rows = con.execute("SELECT module_path, operator_name, occurrence, start_pos_row, start_pos_col, end_pos_row, "
-                           "end_pos_col, job_id FROM mutation_specs").fetchall()
-    sites: dict[str, list] = {}
-    for module, *site, job in rows:
-        sites.setdefault(module, []).append((tuple(site), job))
-    return {m: sorted(v) for m, v in sites.items()}
-
-
-def renew_moved_mutants(config: Path, db: Path, tree: Path) -> dict[str, int]:
-    """Make the mutants of every module whose mutation sites moved since the run made them (an
-    edit since: cosmic-ray applies "occurrence k of operator X", which then names another site,
-    or none) again from the tree as it is, as never run; {module: its new count}. A module
-    whose sites are all where they were keeps its results (an edit that moves no site — text
-    in a string or a comment — leaves each mutant the same change)."""
-    from cosmic_ray.work_db import WorkDB, use_db
-    from cosmic_ray.work_item import WorkerOutcome, WorkResult
-
-    fresh = db.with_name("fresh.sqlite")
-    fresh.unlink(missing_ok=True)
-    subprocess.run([*CR, "init", config, fresh], cwd=tree, env=_env(tree), check=True, capture_output=True)
-    old, new = _sites(db), _sites(fresh)
-    moved = sorted(m for m in new.keys() | old.keys() if [s for s, _ in old.get(m, [])] != [s for s, _ in new.get(m, [])])
-    with use_db(str(fresh), WorkDB.Mode.open) as fresh_db:
-        made = [item for item in fresh_db.work_items if str(item.mutations[0].module_path) in moved]
-    with sqlite3.connect(db) as con:
-        stale = [(job,) for m in moved for _, job in old.get(m, [])]
-        for table in ("work_results", "mutation_specs", "work_items"):
-            con.executemany(f"DELETE FROM {table} WHERE job_id = ?", stale)
-    with use_db(str(db), WorkDB.Mode.open) as work_db:
-        work_db.add_work_items(made)
-        skipped = [i.job_id for i in made if not all(plausible(m.operator_name) for m in i.mutations)]
-        work_db.set_multiple_results(skipped, WorkResult(output="not in the plausible set",
-                                                         worker_outcome=WorkerOutcome.SKIPPED))
-    fresh.unlink()
-    return {str(Path(m).relative_to(tree)): sum(1 for i in made if str(i.mutations[0].module_path) == m
-                                                 and i.job_id not in skipped) for m in moved}
 
 
 def _env(tree: Path) -> dict:

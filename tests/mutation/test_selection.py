@@ -220,33 +220,47 @@ def test_a_resumed_run_makes_the_mutants_of_a_module_whose_sites_moved_again(tmp
     """cosmic-ray applies "occurrence k of operator X": after an edit that moves a module's
     mutation sites, its recorded mutants name other sites. ``renew_moved_mutants`` makes that
     module's mutants again, as never run, and keeps the results of a module whose sites stayed
-    (here one whose edit is inside a string)."""
+    (here one whose edit is inside a string) or moved with its docstring alone (its sites then
+    recorded where they are now)."""
     pytest.importorskip("cosmic_ray", reason="the mutation extra (pip install -e '.[mutation]') is not installed")
     from cosmic_ray.work_db import WorkDB, use_db
     from cosmic_ray.work_item import TestOutcome, WorkerOutcome, WorkResult
-    from run import CR, renew_moved_mutants
+    from renewal import CR, renew_moved_mutants
+    from run import plausible
 
-    (tmp_path / "a.py").write_text("def f(x, y):\n    return x + y\n")
-    (tmp_path / "b.py").write_text("def g(x):\n    return 'one' if x > 1 else 'two'\n")
+    sources = {"a.py": "def f(x, y):\n    return x + y\n",
+               "b.py": "def g(x):\n    return 'one' if x > 1 else 'two'\n",
+               "c.py": 'def h(x):\n    """Twice x."""\n    return 2 * x\n'}
+    pristine = tmp_path / "pristine"
+    pristine.mkdir()
+    for name, text in sources.items():
+        (tmp_path / name).write_text(text)
+        (pristine / name).write_text(text)  # (what run.py keeps of the sources the mutants were made from)
     config, db = tmp_path / "cr.toml", tmp_path / "session.sqlite"
-    config.write_text(f'[cosmic-ray]\nmodule-path = ["{tmp_path / "a.py"}", "{tmp_path / "b.py"}"]\ntimeout = 10.0\n'
+    modules = ", ".join(f'"{tmp_path / name}"' for name in sources)
+    config.write_text(f'[cosmic-ray]\nmodule-path = [{modules}]\ntimeout = 10.0\n'
                       'excluded-modules = []\ntest-command = "true"\n\n[cosmic-ray.distributor]\nname = "local"\n')
     subprocess.run([*CR, "init", config, db], cwd=tmp_path, check=True, capture_output=True)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         items = list(work_db.work_items)
         work_db.set_multiple_results([i.job_id for i in items], WorkResult(
             output="", test_outcome=TestOutcome.KILLED, worker_outcome=WorkerOutcome.NORMAL))
-    assert renew_moved_mutants(config, db, tmp_path) == {}  # nothing moved: every result kept
+
+    def renew():
+        return renew_moved_mutants(config, db, tmp_path, dict(os.environ), plausible, pristine)
+
+    assert renew() == {}  # nothing moved: every result kept
 
     (tmp_path / "a.py").write_text("def f(x, y):\n    z = x - y\n    return x + y + z\n")
     (tmp_path / "b.py").write_text("def g(x):\n    return 'ONE' if x > 1 else 'TWO'\n")
-    renewed = renew_moved_mutants(config, db, tmp_path)
+    (tmp_path / "c.py").write_text('def h(x):\n    """Twice x:\n\n    two times x."""\n    return 2 * x\n')
+    renewed = renew()
     assert list(renewed) == ["a.py"] and renewed["a.py"] > 0
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         done = {str(i.mutations[0].module_path).rsplit("/", 1)[-1] for i, r in work_db.completed_work_items
                 if r.worker_outcome != WorkerOutcome.SKIPPED}  # (a renewed module's implausible mutants: skipped)
         pending = list(work_db.pending_work_items)
-    assert done == {"b.py"} and {str(i.mutations[0].module_path).rsplit("/", 1)[-1] for i in pending} == {"a.py"}
+    assert done == {"b.py", "c.py"} and {str(i.mutations[0].module_path).rsplit("/", 1)[-1] for i in pending} == {"a.py"}
     fresh = tmp_path / "check.sqlite"
     subprocess.run([*CR, "init", config, fresh], cwd=tmp_path, check=True, capture_output=True)
     sites = "SELECT module_path, operator_name, occurrence, start_pos_row, start_pos_col FROM mutation_specs ORDER BY 1, 2, 3"
