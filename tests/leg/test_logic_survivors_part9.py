@@ -9,8 +9,14 @@ expectation comes from the documentation, checked by an independent construction
   search, 32 are searched with 5;
 * Table 3 compiles to the assignment docs/leg_automaton.md prints, although its two candidates
   make PLAs of the same size (15 terms, 86 literals): a tie goes to the first in code order;
-* a Berkeley ``.pla`` ends at ``.e``: whatever follows it is not read.
+* a Berkeley ``.pla`` ends at ``.e``: whatever follows it is not read; a product term before
+  both ``.i`` and ``.o`` is an error naming its line;
+* a row's state must have an output in ``[outputs]``: an integer state without one is a
+  configuration error naming the row's state column, not a KeyError;
+* a compiled circuit model is an immutable value (the model of a model/data pair: shared by
+  every emulator of the circuit).
 """
+import dataclasses
 import itertools
 import tomllib
 from types import SimpleNamespace
@@ -18,6 +24,7 @@ from types import SimpleNamespace
 import pytest
 
 from leg_helpers import TABLE3
+from rtctl.errors import ConfigError, RtctlError
 from rtctl.logic import Pla, compile_table, load_table
 from rtctl.logic.assign import AssignmentError, _shortest_paths, candidate_assignments
 from rtctl.logic.flow import FlowTable
@@ -84,3 +91,28 @@ def test_a_pla_ends_at_dot_e():
     assert pla.equations() == ["y = a b"]
     assert Pla.from_espresso(text + "0- 1\n-0 1\n").equations() == ["y = a b"]
     assert Pla.from_espresso(text + "this is not a product term\n").equations() == ["y = a b"]
+
+
+@pytest.mark.parametrize("header", [".o 1\n", ".i 2\n", ""])
+def test_a_product_term_before_both_dot_i_and_dot_o_names_its_line(header):
+    text = header + "11 1\n.i 2\n.o 1\n.e\n"
+    line = header.count("\n") + 1
+    with pytest.raises(RtctlError, match=f"^line {line}: a product term before .i and .o$"):
+        Pla.from_espresso(text)
+
+
+def test_a_row_whose_state_has_no_output_is_a_configuration_error(tmp_path):
+    text = TABLE3.read_text()
+    k = next(k for k, row in enumerate(tomllib.loads(text)["rows"]) if row[3] == 2)  # the first row in state 2
+    edited = text.replace('"1100", 2],', '"1100", 9],', 1)  # (its line, as Table 3 writes it)
+    assert tomllib.loads(edited)["rows"][k][3] == 9
+    path = tmp_path / "t.toml"
+    path.write_text(edited)
+    with pytest.raises(ConfigError) as e:
+        load_table(path)
+    assert e.value.key_path == f"rows[{k}][3]" and "a state with an output in [outputs]" in e.value.expected
+
+
+def test_a_circuit_model_is_immutable(model):
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        model.max_passes = model.max_passes + 1
