@@ -5,13 +5,16 @@ cosmic-ray applies "occurrence k of operator X". After an edit that moves a modu
 sites, each recorded mutant of that module names another site, or none: its result describes
 code that no longer exists. So a resumed run compares the sites it recorded with a fresh
 ``cosmic-ray init``. A module whose sites stayed keeps its results; so does one whose sites
-moved only because its docstrings or comments changed (the code, compared as an AST without
-docstrings, is the same; its sites are moved to where they are now). Every other module whose
-sites moved gets its mutants made again, as never run.
+moved only because its docstrings or comments changed: the run records, next to its
+database, a hash of each module's code (its AST without docstrings) when its mutants were
+made (:func:`record_code`); where that hash is the same now, its sites are moved to where they
+are. Every other module whose sites moved gets its mutants made again, as never run.
 """
 from __future__ import annotations
 
 import ast
+import hashlib
+import json
 import sqlite3
 import subprocess
 import sys
@@ -47,18 +50,24 @@ def code_without_docstrings(source: str) -> str | None:
     return ast.dump(module)
 
 
-def _same_code(before: Path, now: Path) -> bool:
-    if not before.is_file() or not now.is_file():
-        return False
-    code = code_without_docstrings(before.read_text())
-    return code is not None and code == code_without_docstrings(now.read_text())
+def code_hash(path: Path) -> str | None:
+    code = code_without_docstrings(path.read_text()) if path.is_file() else None
+    return None if code is None else hashlib.sha256(code.encode()).hexdigest()
 
 
-def renew_moved_mutants(config: Path, db: Path, tree: Path, env: dict, plausible: Callable[[str], bool],
-                        pristine: Path | None = None) -> dict[str, int]:
+def _recorded(db: Path) -> Path:
+    return db.with_name("mutants_made_from.json")
+
+
+def record_code(db: Path) -> None:
+    """Record the code each module of the run's mutants now is (after ``init`` or a renewal)."""
+    _recorded(db).write_text(json.dumps({m: code_hash(Path(m)) for m in _sites(db)}, indent=0))
+
+
+def renew_moved_mutants(config: Path, db: Path, tree: Path, env: dict, plausible: Callable[[str], bool]) -> dict[str, int]:
     """Make the mutants of every module whose sites moved and whose code changed since the run
-    made them (``pristine``: the copies they were made from, if kept) again from ``tree`` as it
-    is, as never run; {module: its new count of plausible mutants}. See the module doc."""
+    made them again from ``tree`` as it is, as never run; {module: its new count of plausible
+    mutants}. See the module doc."""
     from cosmic_ray.work_db import WorkDB, use_db
     from cosmic_ray.work_item import WorkerOutcome, WorkResult
 
@@ -67,7 +76,8 @@ def renew_moved_mutants(config: Path, db: Path, tree: Path, env: dict, plausible
     subprocess.run([*CR, "init", config, fresh], cwd=tree, env=env, check=True, capture_output=True)
     old, new = _sites(db), _sites(fresh)
     moved = sorted(m for m in new.keys() | old.keys() if [s for s, _ in old.get(m, [])] != [s for s, _ in new.get(m, [])])
-    shifted = [m for m in moved if pristine is not None and _same_code(pristine / Path(m).relative_to(tree), Path(m))]
+    made_from = json.loads(_recorded(db).read_text()) if _recorded(db).is_file() else {}  # (none: an older run)
+    shifted = [m for m in moved if made_from.get(m) is not None and made_from[m] == code_hash(Path(m))]
     with sqlite3.connect(db) as con:
         for m in shifted:  # (the same mutants in the same order: occurrence k of X is the same change)
             now = {site[:2]: site[2:] for site, _ in new[m]}
@@ -86,5 +96,6 @@ def renew_moved_mutants(config: Path, db: Path, tree: Path, env: dict, plausible
         work_db.set_multiple_results(skipped, WorkResult(output="not in the plausible set",
                                                          worker_outcome=WorkerOutcome.SKIPPED))
     fresh.unlink()
+    record_code(db)
     return {str(Path(m).relative_to(tree)): sum(1 for i in made if str(i.mutations[0].module_path) == m
                                                  and i.job_id not in skipped) for m in moved}

@@ -51,7 +51,7 @@ import time
 from pathlib import Path
 
 from mutant_tests import TIMED_OUT, TOOL_ERROR  # what the test command prints (this script's folder)
-from renewal import CR, renew_moved_mutants
+from renewal import CR, record_code, renew_moved_mutants
 from targets import TARGETS
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -111,6 +111,7 @@ def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD", 
     tests = _write_config(name, tree, config)
     env = _env(tree)
     subprocess.run([*CR, "init", config, db], cwd=tree, env=env, check=True, capture_output=True)
+    record_code(db)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         items = list(work_db.pending_work_items)
         keep = [i for i in items if all(plausible(m.operator_name) for m in i.mutations)]
@@ -239,7 +240,7 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
         raise SystemExit(f"{name}: the run's mutants are in files outside {tree}, e.g. {min(elsewhere)}")
     export_tree(tree, rev)
     tests = _write_config(name, tree, config)
-    for module, n in renew_moved_mutants(config, db, tree, _env(tree), plausible, tree / TOOLS / "pristine").items():
+    for module, n in renew_moved_mutants(config, db, tree, _env(tree), plausible).items():
         print(f"{name}: {module} changed since its mutants were made: its {n} mutants are made again", flush=True)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         items = list(work_db.work_items)

@@ -225,29 +225,27 @@ def test_a_resumed_run_makes_the_mutants_of_a_module_whose_sites_moved_again(tmp
     pytest.importorskip("cosmic_ray", reason="the mutation extra (pip install -e '.[mutation]') is not installed")
     from cosmic_ray.work_db import WorkDB, use_db
     from cosmic_ray.work_item import TestOutcome, WorkerOutcome, WorkResult
-    from renewal import CR, renew_moved_mutants
+    from renewal import CR, record_code, renew_moved_mutants
     from run import plausible
 
     sources = {"a.py": "def f(x, y):\n    return x + y\n",
                "b.py": "def g(x):\n    return 'one' if x > 1 else 'two'\n",
                "c.py": 'def h(x):\n    """Twice x."""\n    return 2 * x\n'}
-    pristine = tmp_path / "pristine"
-    pristine.mkdir()
     for name, text in sources.items():
         (tmp_path / name).write_text(text)
-        (pristine / name).write_text(text)  # (what run.py keeps of the sources the mutants were made from)
     config, db = tmp_path / "cr.toml", tmp_path / "session.sqlite"
     modules = ", ".join(f'"{tmp_path / name}"' for name in sources)
     config.write_text(f'[cosmic-ray]\nmodule-path = [{modules}]\ntimeout = 10.0\n'
                       'excluded-modules = []\ntest-command = "true"\n\n[cosmic-ray.distributor]\nname = "local"\n')
     subprocess.run([*CR, "init", config, db], cwd=tmp_path, check=True, capture_output=True)
+    record_code(db)  # (as run.py does after its init)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         items = list(work_db.work_items)
         work_db.set_multiple_results([i.job_id for i in items], WorkResult(
             output="", test_outcome=TestOutcome.KILLED, worker_outcome=WorkerOutcome.NORMAL))
 
     def renew():
-        return renew_moved_mutants(config, db, tmp_path, dict(os.environ), plausible, pristine)
+        return renew_moved_mutants(config, db, tmp_path, dict(os.environ), plausible)
 
     assert renew() == {}  # nothing moved: every result kept
 
@@ -266,6 +264,11 @@ def test_a_resumed_run_makes_the_mutants_of_a_module_whose_sites_moved_again(tmp
     sites = "SELECT module_path, operator_name, occurrence, start_pos_row, start_pos_col FROM mutation_specs ORDER BY 1, 2, 3"
     with sqlite3.connect(db) as con, sqlite3.connect(fresh) as ref:
         assert con.execute(sites).fetchall() == ref.execute(sites).fetchall()
+
+    # a run from before the record (or one that lost it) cannot tell a docstring from code: made again
+    db.with_name("mutants_made_from.json").unlink()
+    (tmp_path / "c.py").write_text('def h(x):\n    """Twice x."""\n    return 2 * x\n')
+    assert list(renew()) == ["c.py"]
 
 
 def test_a_mutants_tests_run_quickest_first_keeping_each_files_tests_together():
