@@ -14,7 +14,10 @@ expectation comes from the documentation, checked by an independent construction
 * a row's state must have an output in ``[outputs]``: an integer state without one is a
   configuration error naming the row's state column, not a KeyError;
 * a compiled circuit model is an immutable value (the model of a model/data pair: shared by
-  every emulator of the circuit).
+  every emulator of the circuit);
+* an event table may have at most 16 states, 12 gates and 256 rows (docs/leg_automaton.md),
+  the numbers written out: tests that count from the module's own constants cannot see them
+  change.
 """
 import dataclasses
 import itertools
@@ -29,6 +32,7 @@ from rtctl.logic import Pla, compile_table, load_table
 from rtctl.logic.assign import AssignmentError, _shortest_paths, candidate_assignments
 from rtctl.logic.flow import FlowTable
 from rtctl.logic.synthetic import KINDS, synthetic_table
+from rtctl.logic.table import load_table as load_event_table
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -116,3 +120,43 @@ def test_a_row_whose_state_has_no_output_is_a_configuration_error(tmp_path):
 def test_a_circuit_model_is_immutable(model):
     with pytest.raises(dataclasses.FrozenInstanceError):
         model.max_passes = model.max_passes + 1
+
+
+def _load(tmp_path, text):
+    path = tmp_path / "t.toml"
+    path.write_text(text)
+    return load_event_table(path)
+
+
+@pytest.mark.parametrize(("n_states", "ok"), [(16, True), (17, False)])
+def test_an_event_table_has_at_most_16_states(tmp_path, n_states, ok):
+    text = synthetic_table("chain", n_states, 5)
+    if ok:
+        assert len(_load(tmp_path, text).state_labels) == 16
+    else:
+        with pytest.raises(ConfigError, match="at most 16 states, got 17"):
+            _load(tmp_path, text)
+
+
+@pytest.mark.parametrize(("n_gates", "ok"), [(12, True), (13, False)])
+def test_an_event_table_has_at_most_12_gates(tmp_path, n_gates, ok):
+    text = synthetic_table("chain", 4, n_gates)
+    if ok:
+        assert _load(tmp_path, text).n_gates == 12
+    else:
+        with pytest.raises(ConfigError, match="at most 12 gates"):
+            _load(tmp_path, text)
+
+
+@pytest.mark.parametrize(("n_rows", "ok"), [(256, True), (257, False)])
+def test_an_event_table_has_at_most_256_rows(tmp_path, n_rows, ok):
+    """Two states taking turns over Gray-coded gate vectors of 9 gates (512 distinct)."""
+    rows = [f'[{k + 1}, "{k ^ k >> 1:09b}", "{k & 1}", {1 + (k & 1)}],' for k in range(n_rows)]
+    gates = ", ".join(f'"g{i}"' for i in range(9))
+    text = (f'name = "long"\ncyclic = true\ngates = [{gates}]\nactuators = ["A"]\nrows = [\n' + "\n".join(rows)
+            + '\n]\n\n[outputs]\n1 = "0"\n2 = "1"\n')
+    if ok:
+        assert len(_load(tmp_path, text).states) == 256
+    else:
+        with pytest.raises(ConfigError, match="at most 256 rows, got 257"):
+            _load(tmp_path, text)
