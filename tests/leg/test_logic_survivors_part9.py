@@ -160,3 +160,58 @@ def test_an_event_table_has_at_most_256_rows(tmp_path, n_rows, ok):
     else:
         with pytest.raises(ConfigError, match="at most 256 rows, got 257"):
             _load(tmp_path, text)
+
+
+def _primes_by_brute_force(on: list[int], n: int) -> list[tuple[int, int]]:
+    """Every cube (care, value) inside the ON set that no larger such cube contains."""
+    ons = set(on)
+    cubes = [(care, value) for care in range(1 << n) for value in range(1 << n)
+             if not value & ~care and all(m in ons for m in range(1 << n) if m & care == value)]
+    return [c for c in cubes if not any(d != c and c[0] & d[0] == d[0] and c[1] & d[0] == d[1] for d in cubes)]
+
+
+def _cheapest_cover(on, primes) -> tuple[int, int]:
+    """(primes, literals) of a minimum cover, by trying every set of primes, smallest first."""
+    for r in range(1, len(primes) + 1):
+        costs = [(r, sum(primes[i][0].bit_count() for i in sub)) for sub in itertools.combinations(range(len(primes)), r)
+                 if all(any(m & primes[i][0] == primes[i][1] for i in sub) for m in on)]
+        if costs:
+            return min(costs)
+    raise AssertionError("no cover")
+
+
+def test_a_cover_called_proved_is_a_minimum_cover_whatever_the_budget():
+    """``exact_cover`` returns the best cover found and True only when its search ended within
+    the budget. A function of 5 variables whose minimum cover (7 primes, 26 literals) its
+    search finds late: cut after exactly 11 nodes, the best so far has 8 primes, and a search
+    cut there must not call it proved."""
+    from rtctl.logic.qm import exact_cover
+
+    on = [0, 2, 3, 8, 10, 11, 13, 15, 21, 22, 23, 27, 28, 29, 30]
+    primes = _primes_by_brute_force(on, 5)
+    minimum = _cheapest_cover(on, primes)
+    assert minimum == (7, 26)
+    proved_at = []
+    for budget in range(0, 120):
+        cover, proved = exact_cover(on, primes, budget)
+        assert all(any(m & c == v for c, v in cover) for m in on)
+        if proved:
+            assert (len(cover), sum(c.bit_count() for c, _ in cover)) == minimum, budget
+            proved_at.append(budget)
+    assert proved_at and proved_at == list(range(proved_at[0], 120))  # (proved from some budget on)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_synthetic_rows_carry_the_gray_code_of_their_index_and_their_states_low_four_bits(tmp_path, kind):
+    """The module doc of rtctl.logic.synthetic: row k's gate vector is the k-th Gray code
+    k ^ (k >> 1), and the actuator bits of state s are s's low four bits — read back through
+    the table loader (bit i = gate i, actuator i)."""
+    table = _load(tmp_path, synthetic_table(kind, 6, 7, seed=2))
+    assert list(table.inputs) == [k ^ (k >> 1) for k in range(len(table.inputs))]
+    assert all(table.outputs[s] == s & 15 for s in table.states)
+
+
+@pytest.mark.parametrize("text", [".i 2\n.e\n", ".o 1\n.e\n", ".i 2\n", ""])
+def test_a_pla_without_dot_i_or_dot_o_is_no_pla(text):
+    with pytest.raises(RtctlError, match=r"^not a \.pla: \.i and \.o are missing$"):
+        Pla.from_espresso(text)
