@@ -215,3 +215,41 @@ def test_synthetic_rows_carry_the_gray_code_of_their_index_and_their_states_low_
 def test_a_pla_without_dot_i_or_dot_o_is_no_pla(text):
     with pytest.raises(RtctlError, match=r"^not a \.pla: \.i and \.o are missing$"):
         Pla.from_espresso(text)
+
+
+def test_an_assignment_without_routes_settles_in_one_pass():
+    """``Assignment.settle_passes``: one pass per change on the longest route, and one that finds
+    nothing more to change — with no route at all, that one pass."""
+    from rtctl.logic.assign import Assignment
+
+    assert Assignment(1, {1: 0, 2: 1}, {}).settle_passes == 1
+    assert Assignment(2, {1: 0, 2: 3}, {(1, 0): (0, 1, 3)}).settle_passes == 3
+
+
+@pytest.mark.parametrize("on", [[-1, 3], [3, -1], [-5, 0, 15], [0, 16], [16]])
+def test_minterms_outside_the_range_are_refused_wherever_they_are(on):
+    from rtctl.logic.qm import minimise
+
+    with pytest.raises(ValueError, match=r"minterms must be in \[0, 16\)"):
+        minimise(4, on)
+
+
+def test_the_plas_inputs_are_the_gates_then_q1_to_qb(circuit, table3):
+    assert circuit.pla.inputs == tuple(table3.gates) + ("Q1", "Q2", "Q3")
+
+
+def test_a_compiled_circuit_is_immutable(circuit):
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        circuit.pla = None
+
+
+@pytest.mark.parametrize("key", ["01", "-1", "+1", "1_0"])
+def test_an_outputs_key_is_a_plain_state_number(tmp_path, key):
+    text = TABLE3.read_text()
+    edited = text.replace('\n1 = "', f'\n"{key}" = "', 1)
+    assert edited != text
+    path = tmp_path / "t.toml"
+    path.write_text(edited)
+    with pytest.raises(ConfigError) as e:
+        load_table(path)
+    assert e.value.key_path == f"outputs.{key}" and "state number" in e.value.expected
