@@ -1,0 +1,82 @@
+"""Tests for logic-compiler mutants that survived the suite (part 10; docs/testing.md), each
+against the documentation or a count worked out by hand:
+
+* a flow table is an immutable value, like the circuit built from it;
+* a ``.pla`` product term has only 0, 1 or - in its inputs and 0, 1, - or ~ in its outputs —
+  a bad input with good outputs is an error, and a bad output with good inputs;
+* a PLA without product terms has all-false truth tables;
+* the minimiser takes 0 to 16 variables (docs/leg_automaton.md: 16 inputs): a function of no
+  variable is a constant;
+* an event table has at least two rows;
+* the replay of a table that is not cyclic starts at its second row (the first has no
+  predecessor), and goes on to the last;
+* the agreement check visits every state under every gate vector: Table 3's 6 states × 2⁸
+  vectors = 1536 pairs, each counted once as an exit, a stay, a guard or a hold.
+"""
+import dataclasses
+
+import pytest
+
+from leg_helpers import TABLE3
+from rtctl.errors import ConfigError, RtctlError
+from rtctl.logic import CircuitModel, Pla, compile_table, load_table
+from rtctl.logic.qm import minimise
+from rtctl.logic.synthetic import synthetic_table
+from rtctl.logic.verify import agreement, replay
+
+
+def test_a_flow_table_is_immutable(circuit):
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        circuit.flow.initial = 2
+
+
+@pytest.mark.parametrize("term", ["1x 1", "2- 0", "11 x", "-0 2"])
+def test_a_product_term_with_a_character_outside_its_plane_is_refused(term):
+    with pytest.raises(RtctlError, match="^line 3: expected 2 input and 1 output characters"):
+        Pla.from_espresso(f".i 2\n.o 1\n{term}\n.e\n")
+
+
+def test_a_pla_without_terms_is_false_everywhere():
+    pla = Pla.from_espresso(".i 2\n.o 1\n.e\n")
+    assert pla.n_terms == 0
+    assert pla.truth_tables().shape == (4, 1) and not pla.truth_tables().any()
+
+
+def test_the_minimiser_takes_0_to_16_variables():
+    assert minimise(0, [0]) == [(0, 0)]  # the constant 1: one term without literals
+    assert minimise(0, []) == []
+    assert minimise(16, [0xFFFF]) == [(0xFFFF, 0xFFFF)]
+    with pytest.raises(ValueError, match=r"n must be in \[0, 16\], got 17"):
+        minimise(17, [0])
+
+
+def test_an_event_table_has_at_least_two_rows(tmp_path):
+    text = TABLE3.read_text()
+    start, end = text.index("rows = ["), text.index("]\n\n", text.index("rows = ["))
+    one_row = text[:start] + 'rows = [\n    [1, "0010 0100", "1111", 1],\n' + text[end:]
+    path = tmp_path / "t.toml"
+    path.write_text(one_row)
+    with pytest.raises(ConfigError) as e:
+        load_table(path)
+    assert e.value.key_path == "rows" and "at least two rows" in e.value.expected
+
+
+def test_the_replay_of_a_table_that_is_not_cyclic_starts_at_its_second_row(tmp_path):
+    """A chain 1 → 2 → 3 → 4 → 1 written out as five rows (Gray-coded gates), not cyclic: row 0
+    has no predecessor; rows 1–4 are replayed."""
+    text = synthetic_table("chain", 4, 4).replace("cyclic = true", "cyclic = false")
+    text = text.replace('    [4, "0100", "0010", 4],\n', '    [4, "0100", "0010", 4],\n    [5, "0110", "1000", 1],\n')
+    path = tmp_path / "open.toml"
+    path.write_text(text)
+    table = load_table(path)
+    assert not table.cyclic and len(table.states) == 5
+    circuit = compile_table(table)
+    rows = replay(circuit, CircuitModel.from_pla(circuit.pla, table.n_gates, circuit.n_bits))
+    assert [r.row for r in rows] == [1, 2, 3, 4]
+
+
+def test_the_agreement_check_counts_every_state_under_every_gate_vector(circuit, model):
+    counts = agreement(circuit, model)
+    assert counts["pairs"] == 6 * 2**8 == 1536
+    assert counts["exit"] + counts["stay"] + counts["guard"] + counts["hold"] == 1536
+    assert counts["exit"] == len(circuit.flow.transitions)
