@@ -16,6 +16,7 @@ from drivers.framegrabber import attach_shared_memory
 from drivers.protocols.framegrabber import BUSY, H_CLAIM, H_HOLD, W_SEQ0, DevicePort, GrabberMemory, buffer_bytes
 from drivers.protocols.framegrabber_host import HostPort
 from rtctl.hal.framegrabber import GrabberSettings
+from vision_rig import programmed_pair
 
 SETTINGS = GrabberSettings(density=128, scan="frame", levels=256, word_bits=32)
 ENOUGH = {"read": 200, "held": 20}  # the reader's checks before it lets the device stop
@@ -90,17 +91,8 @@ def test_slow_reader_across_processes_never_sees_a_torn_frame():
         shm.unlink()
 
 
-def _pair():
-    memory = GrabberMemory(np.zeros(buffer_bytes(), dtype=np.uint8), create=True)
-    host = HostPort(memory)
-    host.program(SETTINGS)
-    dev = DevicePort(memory)
-    gen, regs = dev.registers()
-    return memory, host, dev, (gen, regs)
-
-
 def test_device_never_reserves_the_published_held_or_claimed_slot():
-    memory, host, dev, (gen, regs) = _pair()
+    memory, host, dev, gen, regs = programmed_pair(SETTINGS)
     slot = dev.reserve()
     dev.publish(slot, 0, "frame", gen, regs, SETTINGS.frame_bytes)
     held = host.claim()
@@ -117,7 +109,7 @@ def test_device_never_reserves_the_published_held_or_claimed_slot():
 
 
 def test_claim_fails_cleanly_when_the_slot_is_being_written():
-    memory, host, dev, (gen, regs) = _pair()
+    memory, host, dev, gen, regs = programmed_pair(SETTINGS)
     slot = dev.reserve()
     dev.publish(slot, 0, "frame", gen, regs, SETTINGS.frame_bytes)
     memory.writer[W_SEQ0 + slot] = BUSY  # the device took the slot back between our two looks
@@ -125,7 +117,7 @@ def test_claim_fails_cleanly_when_the_slot_is_being_written():
 
 
 def test_nothing_new_is_none_and_the_held_frame_stays():
-    memory, host, dev, (gen, regs) = _pair()
+    memory, host, dev, gen, regs = programmed_pair(SETTINGS)
     assert host.take(0.0, 0) is None
     slot = dev.reserve()
     dev.publish(slot, 123, "frame", gen, regs, SETTINGS.frame_bytes)

@@ -13,22 +13,12 @@ import numpy as np
 import pytest
 
 from drivers.protocols import framegrabber
-from drivers.protocols.framegrabber import (
-    BUSY, FAULT, H_CLAIM, H_HOLD, IDLE, RACE, S_STATE, W_SEQ0, DevicePort, GrabberMemory, buffer_bytes, host_claim)
-from drivers.protocols.framegrabber_host import HostPort
+from drivers.protocols.framegrabber import BUSY, FAULT, H_CLAIM, H_HOLD, IDLE, RACE, S_STATE, W_SEQ0, host_claim
 from rtctl.hal.framegrabber import GrabberSettings
 from rtctl.vision.camera import Camera
+from vision_rig import programmed_pair
 
 SETTINGS = GrabberSettings(density=64, scan="frame", word_bits=8)
-
-
-def _pair():
-    memory = GrabberMemory(np.zeros(buffer_bytes(), dtype=np.uint8), create=True)
-    host = HostPort(memory)
-    host.program(SETTINGS)
-    dev = DevicePort(memory)
-    gen, regs = dev.registers()
-    return memory, host, dev, gen, regs
 
 
 class _TakenBackAfterOneLook:
@@ -48,7 +38,7 @@ class _TakenBackAfterOneLook:
 
 
 def test_a_host_that_loses_the_race_for_a_slot_withdraws_its_claim(monkeypatch):
-    memory, host, dev, gen, regs = _pair()
+    memory, host, dev, gen, regs = programmed_pair(SETTINGS)
     slot = dev.reserve()
     dev.publish(slot, 0, "frame", gen, regs, SETTINGS.frame_bytes)
     writer = _TakenBackAfterOneLook(memory.writer, slot)
@@ -63,7 +53,7 @@ def test_a_host_that_loses_the_race_for_a_slot_withdraws_its_claim(monkeypatch):
 
 
 def test_a_device_with_no_free_slot_skips_the_frame_and_counts_it():
-    memory, host, dev, gen, regs = _pair()
+    memory, host, dev, gen, regs = programmed_pair(SETTINGS)
     first = dev.reserve()
     dev.publish(first, 0, "frame", gen, regs, SETTINGS.frame_bytes)  # published
     assert host.claim() == first  # held (and still published)
@@ -78,7 +68,7 @@ def test_a_device_with_no_free_slot_skips_the_frame_and_counts_it():
 @pytest.mark.parametrize(("state", "name"), [(0, "idle"), (1, "running"), (2, "done"), (3, "fault"),
                                              (4, "<state 4>"), (-1, "<state -1>")])
 def test_the_device_status_names_its_state(state, name):
-    memory, host, *_ = _pair()
+    memory, host, *_ = programmed_pair(SETTINGS)
     assert (IDLE, FAULT) == (0, 3)
     memory.status[S_STATE] = state
     assert host.device_status()["state"] == name

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from drivers.protocols.framegrabber import CLOCK_LOOP, GrabberMemory, buffer_bytes
+from drivers.protocols.framegrabber import CLOCK_LOOP, DevicePort, GrabberMemory, buffer_bytes
 from drivers.protocols.framegrabber_host import HostPort
 from hil_sim.camera import CameraSim
 from hil_sim.render import Scene
@@ -13,6 +13,17 @@ from runtime_helpers import PUMA
 
 READY = np.radians([0, 45, -180, 0, 45, 0])
 CAMERA = Camera.looking_at((1.7, -1.2, 0.9), (0.35, 0.05, 0.0), 760.0)
+
+
+def programmed_pair(settings):
+    """A fresh in-process buffer, a host that has programmed ``settings`` and the device's end:
+    (memory, host, device, register generation, register words as the device reads them)."""
+    memory = GrabberMemory(np.zeros(buffer_bytes(), dtype=np.uint8), create=True)
+    host = HostPort(memory)
+    host.program(settings)
+    dev = DevicePort(memory)
+    gen, regs = dev.registers()
+    return memory, host, dev, gen, regs
 
 
 class Rig:
