@@ -80,3 +80,17 @@ def test_the_agreement_check_counts_every_state_under_every_gate_vector(circuit,
     assert counts["pairs"] == 6 * 2**8 == 1536
     assert counts["exit"] + counts["stay"] + counts["guard"] + counts["hold"] == 1536
     assert counts["exit"] == len(circuit.flow.transitions)
+
+
+def test_the_longest_settle_counts_both_changes_of_a_non_critical_race():
+    """Two flip-flops set together (J1 = J2 = g0, never reset) from 00 under g0: either may
+    switch first, and 00 → 01 → 11, 00 → 10 → 11 both take two changes — the one-step jump
+    00 → 11, explored first, must not shorten the paths that reach 11 after it."""
+    from rtctl.logic.verify import _explore
+
+    pla = Pla.from_functions(["g0", "Q1", "Q2"], {"J1": [(0b001, 0b001)], "K1": [], "J2": [(0b001, 0b001)],
+                                                  "K2": [], "A0": [(0b010, 0b010)]})
+    model = CircuitModel.from_pla(pla, 1, 2)
+    finals, cyclic, longest, choice = _explore(model, 0b00, 0b1)
+    assert (finals, cyclic, longest, choice) == ({0b11}, False, 2, True)
+    assert _explore(model, 0b00, 0b0) == ({0b00}, False, 0, False)  # (g0 off: nothing excited)
