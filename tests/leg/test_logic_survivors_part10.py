@@ -94,3 +94,23 @@ def test_the_longest_settle_counts_both_changes_of_a_non_critical_race():
     finals, cyclic, longest, choice = _explore(model, 0b00, 0b1)
     assert (finals, cyclic, longest, choice) == ({0b11}, False, 2, True)
     assert _explore(model, 0b00, 0b0) == ({0b00}, False, 0, False)  # (g0 off: nothing excited)
+
+
+@pytest.mark.parametrize("names", [".ilb a\n.ob y\n", ".ilb a b\n.ob y z\n", ".ilb a b c\n"])
+def test_pla_names_must_match_the_counts(names):
+    with pytest.raises(RtctlError, match=r"^\.ilb/\.ob do not match \.i/\.o$"):
+        Pla.from_espresso(".i 2\n.o 1\n" + names + "11 1\n.e\n")
+
+
+@pytest.mark.parametrize(("row", "width"), [("5", "not an array"), ('"row"', "not an array"),
+                                            ('[1, "0010 0100", "1111"]', "3")])
+def test_a_row_of_the_wrong_shape_says_what_it_got(tmp_path, row, width):
+    text = TABLE3.read_text()
+    edited = text.replace('[ 1, "0010 0100", "1111", 1]', row, 1)
+    assert edited != text
+    path = tmp_path / "t.toml"
+    path.write_text(edited)
+    with pytest.raises(ConfigError) as e:
+        load_table(path)
+    assert e.value.key_path == "rows[0]" and f"4 columns [step, gate bits, actuator bits, state], got {width}:" \
+        in e.value.expected
