@@ -80,7 +80,8 @@ class Table:
         self._seen: set[str] = set()
 
     def key(self, name: str) -> str:
-        return f"{self.path}.{name}" if self.path else name
+        """The key path of ``name`` in this table; the table's own for an empty name."""
+        return f"{self.path}.{name}" if self.path and name else name or self.path
 
     def error(self, name: str, expected: str) -> ConfigError:
         return ConfigError(self.file, self.key(name), expected)

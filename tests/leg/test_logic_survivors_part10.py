@@ -114,3 +114,30 @@ def test_a_row_of_the_wrong_shape_says_what_it_got(tmp_path, row, width):
         load_table(path)
     assert e.value.key_path == "rows[0]" and f"4 columns [step, gate bits, actuator bits, state], got {width}:" \
         in e.value.expected
+
+
+@pytest.mark.parametrize("semantics", ["exact", "guard"])
+def test_the_agreement_line_counts_guard_exits_only_under_the_guard_semantics(table3, semantics):
+    """The compile report's agreement line: exits, stays, guard exits on vectors the table
+    does not show — a kind only the guard semantics has — and holds."""
+    from rtctl.logic.report import format_compile
+    from rtctl.logic.verify import race_proof
+
+    circuit = compile_table(table3, semantics)
+    model = CircuitModel.from_pla(circuit.pla, table3.n_gates, circuit.n_bits)
+    counts = agreement(circuit, model)
+    text = format_compile(circuit, counts, race_proof(circuit, model))
+    line = next(line for line in text.splitlines() if "circuit = automaton on all 1536" in line)
+    assert ("guard exits on vectors the table does not show" in line) == (semantics == "guard"), line
+    if semantics == "exact":
+        assert counts["guard"] == 0
+
+
+def test_an_event_table_has_the_outputs_of_at_least_two_states(tmp_path):
+    text = "\n".join(line for line in TABLE3.read_text().splitlines()
+                     if not (line[:1].isdigit() and line.split(" = ")[0].strip() != "1")) + "\n"
+    path = tmp_path / "t.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as e:
+        load_table(path)
+    assert e.value.key_path == "outputs" and "the outputs of at least two states" in e.value.expected
