@@ -141,3 +141,21 @@ def test_an_event_table_has_the_outputs_of_at_least_two_states(tmp_path):
     with pytest.raises(ConfigError) as e:
         load_table(path)
     assert e.value.key_path == "outputs" and "the outputs of at least two states" in e.value.expected
+
+
+def test_an_event_table_is_cyclic_unless_it_says_otherwise(tmp_path):
+    """configs/leg/table3.toml: ``cyclic`` is true by default."""
+    text = "\n".join(line for line in TABLE3.read_text().splitlines() if not line.startswith("cyclic")) + "\n"
+    path = tmp_path / "t.toml"
+    path.write_text(text)
+    table = load_table(path)
+    assert table.cyclic and table.predecessor(0) == len(table.states) - 1
+
+
+def test_an_event_table_and_a_guard_are_immutable(table3):
+    from rtctl.logic.flow import flow_table, guards
+
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        table3.cyclic = False
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        guards(flow_table(table3))[0].terms = ()
