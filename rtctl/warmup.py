@@ -89,7 +89,7 @@ class Precompile:
                 self._probe(stop)
             finally:
                 self._stop_heartbeat()
-        if self.loaded == len(self.groups):
+        if self.done:
             log.info("kernels loaded", seconds=round(time.monotonic() - self.started, 2), compiled=0)
             return self
         if stop():
@@ -161,7 +161,7 @@ class Precompile:
     def finish(self) -> None:
         """Run the groups the probe did not reach in this process (loading what the workers
         compiled; compiling, and saying so every second, what a failed worker left)."""
-        if self.loaded == len(self.groups):
+        if self.done:
             return
         t0 = time.monotonic()
 
