@@ -134,6 +134,17 @@ def test_every_action_code_round_trips_and_no_other_is_accepted():
             lb.pack_actions(knee, ankle)
 
 
+def test_every_status_byte_splits_into_the_applied_actions_and_the_fault_bits():
+    """The documented status byte: bits 0-3 echo the actions applied (any of the 16 codes is a
+    board under command), bit 4 is the watchdog's lock and bits 5-7 are undefined: any of those
+    four means the board is not under our command."""
+    for status in range(256):
+        actions, faults = status & 0b0000_1111, status & 0b1111_0000
+        assert status & lb.ACTIONS_MASK == actions, status
+        assert status & lb.STATUS_FAULTS == faults, status
+    assert lb.WATCHDOG == 0b1_0000
+
+
 def test_a_fresh_decoder_reports_nothing_received():
     # before the first frame: no sequence number, no watchdog trip, no actions (hold), no load
     for kind in (lb.SENSOR, lb.COMMAND):
