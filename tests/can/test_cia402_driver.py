@@ -2,6 +2,7 @@
 virtual bus, emulated CiA 402 drives (hil_sim.cia402_drive) on the far end."""
 import threading
 
+import canopen
 import numpy as np
 import pytest
 
@@ -309,3 +310,30 @@ def test_bring_up_asks_no_drive_for_torque_before_the_first_command(rig):
     r.activate()
     assert all(d.state == c.OPERATION_ENABLED for d in r.drive_list)
     assert [d.torque_permille for d in r.drive_list] == [0, 0] and [d.torque for d in r.drive_list] == [0.0, 0.0]
+
+
+def test_the_objects_the_bring_up_touches_are_the_ones_the_offline_check_covers(rig, monkeypatch):
+    """`rtctl check` vets an EDS offline for what the bring-up will read and write
+    (c.BRING_UP_OBJECTS, besides the PDO set); so that list must be the bring-up's own SDO
+    traffic, sub-index and all. Recorded at the emulated drives' object dictionaries."""
+    touched = set()
+    get_data, set_data = canopen.LocalNode.get_data, canopen.LocalNode.set_data
+
+    def recording_get(node, index, subindex, *args, **kw):
+        touched.add((index, subindex))
+        return get_data(node, index, subindex, *args, **kw)
+
+    def recording_set(node, index, subindex, *args, **kw):
+        touched.add((index, subindex))
+        return set_data(node, index, subindex, *args, **kw)
+
+    monkeypatch.setattr(canopen.LocalNode, "get_data", recording_get)
+    monkeypatch.setattr(canopen.LocalNode, "set_data", recording_set)
+    rig().configure()
+    pdo_records = {i for i, _ in touched if 0x1400 <= i <= 0x1BFF}  # the PDO set: pdo.save()
+    assert pdo_records == {0x1400, 0x1600, 0x1800, 0x1801, 0x1A00, 0x1A01}
+    outside = {(i, s) for i, s in touched if i not in pdo_records}
+    assert outside == {(0x6040, 0), (0x1000, 0), (0x6502, 0), (0x6076, 0), (0x608F, 1), (0x608F, 2),
+                       (0x6060, 0), (0x6072, 0), (0x1017, 0)}
+    assert (0x1400, 5) in touched  # RPDO1's event timer: the drives' deadline
+    assert set(c.BRING_UP_OBJECTS) == outside | {(0x1400, 5)}

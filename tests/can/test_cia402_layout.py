@@ -1,5 +1,6 @@
 """The CiA 402 drive layout of a [[devices]] table (drivers.protocols.cia402_layout): node ids,
 the drives' scaling, mounting and EDS, and the refusals naming the key."""
+import configparser
 import dataclasses
 import math
 import shutil
@@ -20,6 +21,14 @@ def device(file="run.toml", **options):
 
 def read(names=NAMES, **options):
     return read_cia402_joints(device(**options), names)
+
+
+def _shipped_eds() -> configparser.RawConfigParser:
+    """The shipped EDS as plain INI sections, keys case-kept (to edit it or read it independently)."""
+    parser = configparser.RawConfigParser()
+    parser.optionxform = str
+    parser.read(c.EDS)
+    return parser
 
 
 def refused(key, match, names=NAMES, **options):
@@ -131,11 +140,7 @@ def test_an_eds_without_an_object_the_bring_up_sets_is_refused_at_configuration_
     in the middle of the drives' bring-up — after the bus had been opened and the
     drives sent to PRE-OPERATIONAL — instead of exit 2 naming the key. So did a PDO record
     entry that is not an integer (a TypeError from python-canopen when the bring-up saved it)."""
-    import configparser
-
-    parser = configparser.RawConfigParser()
-    parser.optionxform = str
-    parser.read(c.EDS)
+    parser = _shipped_eds()
     if key is None:
         parser.remove_section(section)
     else:
@@ -145,3 +150,58 @@ def test_an_eds_without_an_object_the_bring_up_sets_is_refused_at_configuration_
     with pytest.raises(ConfigError, match=named) as e:
         read_eds(device(tmp_path / "run.toml", eds="x.eds"))
     assert e.value.key_path == "devices[0].eds"
+
+
+def _eds_with_tpdo3(tmp_path, cob_id: str, count: str):
+    """The shipped EDS plus a TPDO3: a copy of TPDO2's records with this COB-ID and mapping count."""
+    parser = _shipped_eds()
+    for section in [s for s in parser.sections() if s.startswith(("1801", "1A01"))]:
+        copy = section.replace("1801", "1802").replace("1A01", "1A02")
+        parser.add_section(copy)
+        for key, value in parser.items(section):
+            parser.set(copy, key, value.replace("TPDO2", "TPDO3"))
+    parser.set("1802sub1", "DefaultValue", cob_id)
+    parser.set("1A02sub0", "DefaultValue", count)
+    listed = int(parser.get("OptionalObjects", "SupportedObjects"))
+    parser.set("OptionalObjects", str(listed + 1), "0x1802")
+    parser.set("OptionalObjects", str(listed + 2), "0x1A02")
+    parser.set("OptionalObjects", "SupportedObjects", str(listed + 2))
+    with (tmp_path / "x.eds").open("w") as f:
+        parser.write(f)
+    return tmp_path / "x.eds"
+
+
+@pytest.mark.parametrize("cob_id, count", [("0x80000380", "4"), ("$NODEID+0x380", "0")],
+                         ids=["disabled with a mapping", "enabled without one"])
+def test_a_pdo_that_sends_nothing_is_no_disagreement_with_python_canopen(tmp_path, cob_id, count):
+    """A TPDO that is disabled (COB-ID bit 31, CiA 301) or maps nothing carries no frame: the
+    driver's layout leaves it out and so must the check of python-canopen's reading."""
+    path, layout = read_eds(device(_eds_with_tpdo3(tmp_path, cob_id, count).parent / "run.toml", eds="x.eds"))
+    assert [p.number for p in layout.tpdos] == [1, 2]
+    c.check_bring_up(path, layout)
+
+
+def _mapping(parser, record: int) -> list[tuple[int, int]]:
+    """A mapping record's entries as (object index, bits), read from the EDS text itself."""
+    n = int(parser.get(f"{record:X}sub0", "DefaultValue"), 0)
+    entries = [int(parser.get(f"{record:X}sub{k}", "DefaultValue"), 0) for k in range(1, n + 1)]
+    return [(e >> 16, e & 0xFF) for e in entries]
+
+
+def test_a_layout_that_is_not_python_canopens_reading_is_refused_naming_both(tmp_path):
+    """check_bring_up against a layout of another EDS (TPDO2's objects in TPDO4): the message
+    lists both readings as `KINDn: index/bits, …` joined by `; `."""
+    moved = tmp_path / "moved.eds"
+    moved.write_text(c.EDS.read_text().replace("1801", "1803").replace("1A01", "1A03")
+                     .replace("$NODEID+0x280", "$NODEID+0x480"))
+    parser = _shipped_eds()
+
+    def listed(pdos):
+        return "; ".join(f"{kind}{n}: " + ", ".join(f"{i:#06x}/{bits}" for i, bits in _mapping(parser, record))
+                         for kind, n, record in pdos)
+
+    shipped = listed([("RPDO", 1, 0x1600), ("TPDO", 1, 0x1A00), ("TPDO", 2, 0x1A01)])
+    driver = listed([("RPDO", 1, 0x1600), ("TPDO", 1, 0x1A00), ("TPDO", 4, 0x1A01)])
+    with pytest.raises(ValueError) as e:
+        c.check_bring_up(c.EDS, c.PdoLayout.from_eds(moved))
+    assert str(e.value) == f"python-canopen reads the PDO set as {shipped}, the driver as {driver}"
