@@ -517,14 +517,17 @@ def test_an_activation_on_a_broken_link_fails_as_a_bus_error(rig):
 
 
 @pytest.mark.parametrize("model", [KATZ, DRIVE_MODELS["ak80-9"], DRIVE_MODELS["dm4310"]], ids=lambda m: m.name)
-def test_a_joint_at_rest_reads_zero_velocity_not_half_a_step_below(rig, model):
-    # the firmware truncates (x − x_min)·(2^bits − 1)/span: a still joint's velocity code is
-    # 2^11 − 1, which decodes to −½ step; the interval's centre is the unbiased reading
+def test_a_joint_at_rest_at_zero_reads_zero_not_half_a_step_below(rig, model):
+    # the firmware truncates (x − x_min)·(2^bits − 1)/span: with symmetric ranges a still,
+    # unloaded joint at 0 sends codes 2^15 − 1 and 2^11 − 1, which decode to −½ step each;
+    # the interval's centre is the unbiased reading — for position, velocity and effort
     r = rig([MitJoint("a", 1, model), MitJoint("b", 2, model)])
     r.q[:], r.qd[:] = [0.0, 0.0], [0.0, 0.0]
     r.configure()
     assert r.read(0.0) == Status.OK
-    assert np.all(np.abs(r.state.velocity) < 1e-12), r.state.velocity
+    for name in ("position", "velocity", "effort"):
+        reading = getattr(r.state, name)
+        assert np.all(np.abs(reading) < 1e-12), (name, reading)
 
 
 @pytest.mark.parametrize("model", [KATZ, DRIVE_MODELS["ak80-9"], DRIVE_MODELS["dm4310"]], ids=lambda m: m.name)
