@@ -37,7 +37,8 @@ TARGETS = {
               "tests/leg/test_logic_survivors_part6.py tests/leg/test_logic_survivors_part7.py "
               "tests/leg/test_minimiser.py tests/leg/test_guard_lag.py tests/leg/test_controller.py "
               "tests/leg/test_logic_report_limits.py tests/leg/test_logic_survivors_part8.py "
-              "tests/leg/test_logic_survivors_part9.py tests/leg/test_logic_survivors_part10.py", 300),
+              "tests/leg/test_logic_survivors_part9.py tests/leg/test_logic_survivors_part10.py "
+              "tests/leg/test_logic_survivors_part11.py", 300),
     "vision": (["rtctl/vision", "drivers/protocols/framegrabber.py", "drivers/protocols/framegrabber_host.py"],
                "tests/vision tests/hil/test_framegrabber_hil.py", 300),  # (with the daemon runs: 19 s; the HIL runs: 35 s)
     "mcap": (["rtctl/telemetry/mcap_export.py", "rtctl/telemetry/channels.py"],  # (channels: shared with the live view)

@@ -1,0 +1,41 @@
+"""Tests for logic-compiler mutants that survived the full run's second pass (part 11;
+docs/testing.md), each against the documented contract:
+
+* the minimiser takes 0 to 16 variables, whatever the function — a negative count is refused
+  by name even when the ON-set is empty (where nothing else would notice);
+* a synthetic state sequence has at least 2 states, for every kind;
+* an event table row's state is an integer state of ``[outputs]``: a TOML boolean or float
+  that equals one (``true`` == 1, ``1.0`` == 1 in Python) is refused, not read as that state.
+"""
+import pytest
+
+from leg_helpers import TABLE3
+from rtctl.errors import ConfigError
+from rtctl.logic import load_table
+from rtctl.logic.qm import minimise
+from rtctl.logic.synthetic import KINDS, state_sequence
+
+
+@pytest.mark.parametrize("on", [[], [0]])
+def test_a_negative_variable_count_is_refused_by_name(on):
+    with pytest.raises(ValueError, match=r"n must be in \[0, 16\], got -1"):
+        minimise(-1, on)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_synthetic_sequence_has_at_least_two_states(kind):
+    assert len(set(state_sequence(kind, 2))) == 2
+    with pytest.raises(ValueError, match="at least 2 states, got 1"):
+        state_sequence(kind, 1)
+
+
+@pytest.mark.parametrize("state", ["true", "1.0"])
+def test_a_rows_state_is_an_integer_not_a_value_equal_to_one(tmp_path, state):
+    text = TABLE3.read_text()
+    edited = text.replace('[ 1, "0010 0100", "1111", 1]', f'[ 1, "0010 0100", "1111", {state}]', 1)
+    assert edited != text
+    path = tmp_path / "t.toml"
+    path.write_text(edited)
+    with pytest.raises(ConfigError) as e:
+        load_table(path)
+    assert e.value.key_path == "rows[0][3]" and "a state with an output in [outputs]" in e.value.expected
