@@ -45,7 +45,7 @@ class MonotonicClock:
     requested by a signal handler is acted on at once, however long the period.
     """
 
-    def __init__(self, spin_margin_ns: int = 100_000, interrupted=None):
+    def __init__(self, spin_margin_ns: int, interrupted=None):  # (the spin: [loop] spin_us)
         if spin_margin_ns < 0:
             raise ValueError("spin_margin_ns must be >= 0")
         self.spin_margin_ns = int(spin_margin_ns)

@@ -185,34 +185,38 @@ def _read(path: str) -> str | None:
         return None
 
 
-def doctor(priority: int = 80) -> list[Check]:
-    """Read the live machine and check it for a SCHED_FIFO loop at ``priority``."""
-    cpu = "/sys/devices/system/cpu"
-    cmdline = _read("/proc/cmdline")
+def doctor(priority: int = 80, root: str = "/") -> list[Check]:
+    """Read the live machine and check it for a SCHED_FIFO loop at ``priority`` (80: the
+    documented ``[loop.rt]`` example). ``root``: where ``/proc`` and ``/sys`` are found (a
+    test's fake tree); the limits, capabilities and timer slack are always this process's."""
+    root = os.path.join(root, "")
+    cpu = f"{root}sys/devices/system/cpu"
+    cmdline = _read(f"{root}proc/cmdline")
     governors = {os.path.basename(os.path.dirname(os.path.dirname(p))): (_read(p) or "").strip() or None
                  for p in glob.glob(f"{cpu}/cpu[0-9]*/cpufreq/scaling_governor")}
     idle = {}
     for state in sorted(glob.glob(f"{cpu}/cpu0/cpuidle/state*")):
-        name, latency = _read(f"{state}/name"), _read(f"{state}/latency")
-        if name and latency and latency.strip().isdigit():
-            idle[name.strip()] = int(latency)
-    cpuinfo = _read("/proc/cpuinfo") or ""
+        name, latency = (_read(f"{state}/name") or "").strip(), (_read(f"{state}/latency") or "").strip()
+        if name and latency.isdigit():
+            idle[name] = int(latency)
+    cpuinfo = _read(f"{root}proc/cpuinfo") or ""
     rtprio = resource.getrlimit(resource.RLIMIT_RTPRIO)
     return [
-        check_preemption(os.uname().version, _read("/sys/kernel/realtime"),
-                         _read("/sys/kernel/debug/sched/preempt"), cmdline),
+        check_preemption(os.uname().version, _read(f"{root}sys/kernel/realtime"),
+                         _read(f"{root}sys/kernel/debug/sched/preempt"), cmdline),
         check_rtprio(rtprio[0], rtprio[1], has_capability(CAP_SYS_NICE), priority),
         check_memlock(resource.getrlimit(resource.RLIMIT_MEMLOCK)[0], has_capability(CAP_IPC_LOCK)),
-        check_rt_throttling(_read("/proc/sys/kernel/sched_rt_runtime_us"), _read("/proc/sys/kernel/sched_rt_period_us")),
+        check_rt_throttling(_read(f"{root}proc/sys/kernel/sched_rt_runtime_us"),
+                            _read(f"{root}proc/sys/kernel/sched_rt_period_us")),
         check_timer_slack(timer_slack_ns()),
         check_governor(governors),
         check_isolation(_read(f"{cpu}/isolated"), _read(f"{cpu}/nohz_full"), cmdline),
         check_smt(_read(f"{cpu}/smt/control"), _read(f"{cpu}/smt/active")),
-        check_clocksource(_read("/sys/devices/system/clocksource/clocksource0/current_clocksource")),
-        check_thp(_read("/sys/kernel/mm/transparent_hugepage/enabled")),
+        check_clocksource(_read(f"{root}sys/devices/system/clocksource/clocksource0/current_clocksource")),
+        check_thp(_read(f"{root}sys/kernel/mm/transparent_hugepage/enabled")),
         check_cpuidle(_read(f"{cpu}/cpuidle/current_driver"), idle),
         check_virtualisation(re.search(r"^flags\b.*\bhypervisor\b", cpuinfo, re.M) is not None
-                             or _read("/sys/hypervisor/type") is not None),
+                             or _read(f"{root}sys/hypervisor/type") is not None),
     ]
 
 
