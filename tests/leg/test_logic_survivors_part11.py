@@ -4,6 +4,8 @@ docs/testing.md), each against the documented contract:
 * the minimiser takes 0 to 16 variables, whatever the function — a negative count is refused
   by name even when the ON-set is empty (where nothing else would notice);
 * a synthetic state sequence has at least 2 states, for every kind;
+* the assignment search tries ⌈log₂ states⌉ flip-flops first and at most 5 (docs/leg_automaton.md):
+  a search with no budget at all reports exactly those flip-flop counts as tried;
 * an event table row's state is an integer state of ``[outputs]``: a TOML boolean or float
   that equals one (``true`` == 1, ``1.0`` == 1 in Python) is refused, not read as that state.
 """
@@ -12,6 +14,8 @@ import pytest
 from leg_helpers import TABLE3
 from rtctl.errors import ConfigError
 from rtctl.logic import load_table
+from rtctl.logic.assign import AssignmentError, candidate_assignments
+from rtctl.logic.flow import flow_table
 from rtctl.logic.qm import minimise
 from rtctl.logic.synthetic import KINDS, state_sequence
 
@@ -39,3 +43,11 @@ def test_a_rows_state_is_an_integer_not_a_value_equal_to_one(tmp_path, state):
     with pytest.raises(ConfigError) as e:
         load_table(path)
     assert e.value.key_path == "rows[0][3]" and "a state with an output in [outputs]" in e.value.expected
+
+
+def test_a_search_without_budget_tries_from_the_fewest_flip_flops_up_to_five():
+    flow = flow_table(load_table(TABLE3))  # 6 states: 3 flip-flops at least
+    with pytest.raises(AssignmentError) as e:
+        candidate_assignments(flow, budget=0)
+    tried = [part.split(" flip-flops")[0] for part in str(e.value).split("with ")[1:]]
+    assert tried == ["3", "4", "5"], str(e.value)
