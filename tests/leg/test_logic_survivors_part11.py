@@ -6,18 +6,24 @@ docs/testing.md), each against the documented contract:
 * a synthetic state sequence has at least 2 states, for every kind;
 * the assignment search tries ⌈log₂ states⌉ flip-flops first and at most 5 (docs/leg_automaton.md):
   a search with no budget at all reports exactly those flip-flop counts as tried;
+* a state number is any non-negative integer: a table may name a state 0;
+* an assignment and a guard automaton are immutable values, like the flow table and circuit;
 * an event table row's state is an integer state of ``[outputs]``: a TOML boolean or float
   that equals one (``true`` == 1, ``1.0`` == 1 in Python) is refused, not read as that state.
 """
+import dataclasses
+import re
+
 import pytest
 
 from leg_helpers import TABLE3
 from rtctl.errors import ConfigError
-from rtctl.logic import load_table
+from rtctl.logic import CircuitModel, compile_table, load_table
 from rtctl.logic.assign import AssignmentError, candidate_assignments
 from rtctl.logic.flow import flow_table
 from rtctl.logic.qm import minimise
 from rtctl.logic.synthetic import KINDS, state_sequence
+from rtctl.logic.verify import agreement
 
 
 @pytest.mark.parametrize("on", [[], [0]])
@@ -51,3 +57,25 @@ def test_a_search_without_budget_tries_from_the_fewest_flip_flops_up_to_five():
         candidate_assignments(flow, budget=0)
     tried = [part.split(" flip-flops")[0] for part in str(e.value).split("with ")[1:]]
     assert tried == ["3", "4", "5"], str(e.value)
+
+
+def test_a_table_may_name_a_state_0(tmp_path):
+    """Table 3 with its state 6 renamed 0, in ``[outputs]`` and in the rows."""
+    text = TABLE3.read_text()
+    edited = re.sub(r", 6\]", ", 0]", text.replace('6 = "0111"', '0 = "0111"'))
+    assert edited.count(", 0]") == 2
+    path = tmp_path / "t.toml"
+    path.write_text(edited)
+    table = load_table(path)
+    assert sorted(set(table.states)) == [0, 1, 2, 3, 4, 5]
+    circuit = compile_table(table)
+    model = CircuitModel.from_pla(circuit.pla, table.n_gates, circuit.n_bits)
+    assert agreement(circuit, model)["mismatches"] == []
+
+
+def test_an_assignment_and_a_guard_automaton_are_immutable(circuit):
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        circuit.assignment.n_bits = 4
+    guard = compile_table(load_table(TABLE3), semantics="guard").guard
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        guard.flow = None
