@@ -72,3 +72,17 @@ def one_jump_circuit(table, circuit):
     key = next(k for k, p in routes.items() if k[0] == 1 and a.state_of(p[-1]) == 2)
     routes[key] = (a.codes[1], a.codes[2])
     return synthesise(flow_table(table), Assignment(3, a.codes, routes))
+
+
+def table_refusal(tmp_path, text):
+    """The configuration error loading the event table ``text`` raises (it must raise one)."""
+    import pytest
+
+    from rtctl.errors import ConfigError
+    from rtctl.logic import load_table
+
+    path = tmp_path / "t.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError) as e:
+        load_table(path)
+    return e.value

@@ -17,8 +17,8 @@ import dataclasses
 
 import pytest
 
-from leg_helpers import TABLE3
-from rtctl.errors import ConfigError, RtctlError
+from leg_helpers import TABLE3, table_refusal
+from rtctl.errors import RtctlError
 from rtctl.logic import CircuitModel, Pla, compile_table, load_table
 from rtctl.logic.qm import minimise
 from rtctl.logic.synthetic import synthetic_table
@@ -50,19 +50,10 @@ def test_the_minimiser_takes_0_to_16_variables():
         minimise(17, [0])
 
 
-def _refusal(tmp_path, text) -> ConfigError:
-    """The configuration error loading the event table ``text`` raises."""
-    path = tmp_path / "t.toml"
-    path.write_text(text)
-    with pytest.raises(ConfigError) as e:
-        load_table(path)
-    return e.value
-
-
 def test_an_event_table_has_at_least_two_rows(tmp_path):
     text = TABLE3.read_text()
     start, end = text.index("rows = ["), text.index("]\n\n", text.index("rows = ["))
-    e = _refusal(tmp_path, text[:start] + 'rows = [\n    [1, "0010 0100", "1111", 1],\n' + text[end:])
+    e = table_refusal(tmp_path, text[:start] + 'rows = [\n    [1, "0010 0100", "1111", 1],\n' + text[end:])
     assert e.key_path == "rows" and "at least two rows" in e.expected
 
 
@@ -113,7 +104,7 @@ def test_a_row_of_the_wrong_shape_says_what_it_got(tmp_path, row, width):
     text = TABLE3.read_text()
     edited = text.replace('[ 1, "0010 0100", "1111", 1]', row, 1)
     assert edited != text
-    e = _refusal(tmp_path, edited)
+    e = table_refusal(tmp_path, edited)
     assert e.key_path == "rows[0]" and f"4 columns [step, gate bits, actuator bits, state], got {width}:" in e.expected
 
 
@@ -137,7 +128,7 @@ def test_the_agreement_line_counts_guard_exits_only_under_the_guard_semantics(ta
 def test_an_event_table_has_the_outputs_of_at_least_two_states(tmp_path):
     text = "\n".join(line for line in TABLE3.read_text().splitlines()
                      if not (line[:1].isdigit() and line.split(" = ")[0].strip() != "1")) + "\n"
-    e = _refusal(tmp_path, text)
+    e = table_refusal(tmp_path, text)
     assert e.key_path == "outputs" and "the outputs of at least two states" in e.expected
 
 

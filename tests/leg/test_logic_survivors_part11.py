@@ -16,8 +16,7 @@ import re
 
 import pytest
 
-from leg_helpers import TABLE3
-from rtctl.errors import ConfigError
+from leg_helpers import TABLE3, table_refusal
 from rtctl.logic import CircuitModel, compile_table, load_table
 from rtctl.logic.assign import AssignmentError, candidate_assignments
 from rtctl.logic.flow import flow_table
@@ -44,11 +43,8 @@ def test_a_rows_state_is_an_integer_not_a_value_equal_to_one(tmp_path, state):
     text = TABLE3.read_text()
     edited = text.replace('[ 1, "0010 0100", "1111", 1]', f'[ 1, "0010 0100", "1111", {state}]', 1)
     assert edited != text
-    path = tmp_path / "t.toml"
-    path.write_text(edited)
-    with pytest.raises(ConfigError) as e:
-        load_table(path)
-    assert e.value.key_path == "rows[0][3]" and "a state with an output in [outputs]" in e.value.expected
+    e = table_refusal(tmp_path, edited)
+    assert e.key_path == "rows[0][3]" and "a state with an output in [outputs]" in e.expected
 
 
 def test_a_search_without_budget_tries_from_the_fewest_flip_flops_up_to_five():

@@ -26,7 +26,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from leg_helpers import TABLE3
+from leg_helpers import TABLE3, table_refusal
 from rtctl.errors import ConfigError, RtctlError
 from rtctl.logic import Pla, compile_table, load_table
 from rtctl.logic.assign import AssignmentError, _shortest_paths, candidate_assignments
@@ -110,11 +110,8 @@ def test_a_row_whose_state_has_no_output_is_a_configuration_error(tmp_path):
     k = next(k for k, row in enumerate(tomllib.loads(text)["rows"]) if row[3] == 2)  # the first row in state 2
     edited = text.replace('"1100", 2],', '"1100", 9],', 1)  # (its line, as Table 3 writes it)
     assert tomllib.loads(edited)["rows"][k][3] == 9
-    path = tmp_path / "t.toml"
-    path.write_text(edited)
-    with pytest.raises(ConfigError) as e:
-        load_table(path)
-    assert e.value.key_path == f"rows[{k}][3]" and "a state with an output in [outputs]" in e.value.expected
+    e = table_refusal(tmp_path, edited)
+    assert e.key_path == f"rows[{k}][3]" and "a state with an output in [outputs]" in e.expected
 
 
 def test_a_circuit_model_is_immutable(model):
@@ -248,8 +245,5 @@ def test_an_outputs_key_is_a_plain_state_number(tmp_path, key):
     text = TABLE3.read_text()
     edited = text.replace('\n1 = "', f'\n"{key}" = "', 1)
     assert edited != text
-    path = tmp_path / "t.toml"
-    path.write_text(edited)
-    with pytest.raises(ConfigError) as e:
-        load_table(path)
-    assert e.value.key_path == f"outputs.{key}" and "state number" in e.value.expected
+    e = table_refusal(tmp_path, edited)
+    assert e.key_path == f"outputs.{key}" and "state number" in e.expected
