@@ -3,11 +3,14 @@
 * ``digitise_pack`` subtracts the black offset, given in 255ths of the full video level, as
   ``digitise`` does (docs/framegrabber.md);
 * ``digitise_pack`` refuses, with a ValueError, any video array that is not a C-contiguous 2-D
-  float32 array — before its compiled kernel sees it.
+  float32 array, an offset outside 0…255 and levels other than 2, 4, 16, 256 — before its
+  compiled kernel sees them;
+* the marker's ``min_contrast`` is a fraction of the full grey scale, levels − 1.
 """
 import numpy as np
 import pytest
 
+from rtctl.vision.marker import locate
 from rtctl.vision.pixels import digitise, digitise_pack
 
 
@@ -34,3 +37,19 @@ def test_digitise_pack_subtracts_the_black_offset_in_255ths(offset):
 def test_digitise_pack_refuses_what_is_not_a_contiguous_2d_float32_array(analog):
     with pytest.raises(ValueError, match="analog must be a C-contiguous 2-D float32 array"):
         digitise_pack(analog, 0, 1.0, 16, np.zeros((2, 1), dtype="<u4"))
+
+
+@pytest.mark.parametrize("offset, levels", [(256, 16), (-1, 16), (0, 3), (0, 8)])
+def test_digitise_pack_refuses_an_offset_or_levels_out_of_range(offset, levels):
+    with pytest.raises(ValueError, match="levels 2/4/16/256, offset 0..255"):
+        digitise_pack(np.zeros((1, 8), dtype=np.float32), offset, 1.0, levels, np.zeros((1, 1), dtype="<u4"))
+
+
+@pytest.mark.parametrize("peak, found", [(3, False), (4, True)])
+def test_min_contrast_is_a_fraction_of_levels_minus_one(peak, found):
+    """16 levels, min_contrast 0.2: a peak must stand 0.2 · 15 = 3 grey levels above the box's
+    mean. A 5 × 5 box of zeros around one pixel of ``peak``: it stands 24/25 · peak above."""
+    img = np.zeros((9, 9), dtype=np.uint8)
+    img[4, 4] = peak  # 2.88 levels above the mean: not enough; 3.84: enough
+    out = np.zeros(4)
+    assert locate(img, (4, 4), (2, 2), 16, 0.2, out) == found
