@@ -266,8 +266,12 @@ def _env(tree: Path) -> dict:
     rtctl keeps them in ``.numba/rtctl-kernels-<hash of the sources>`` (rtctl.kernel_cache),
     so each mutant gets a cache of its own — numba alone would reuse a caller compiled against
     an earlier mutant's (or the original) callee in another file — which the next mutant's
-    test command removes before it starts."""
-    return {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tree / ".numba")}
+    test command removes before it starts. Every index in compiled code is checked
+    (``NUMBA_BOUNDSCHECK``): a mutant that reads past an array is a kill even where the
+    memory it reads happens not to change a result (the unmutated run proves the tests pass
+    so, and every kernel of a run is compiled under it: the warm ones too)."""
+    return {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tree / ".numba"),
+            "NUMBA_BOUNDSCHECK": "1"}
 
 
 def _exec(config: Path, db: Path, tree: Path) -> None:
