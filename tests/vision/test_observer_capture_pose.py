@@ -23,8 +23,9 @@ class _NoImage:
         return None
 
 
-@pytest.mark.parametrize("fraction", [0.25, 0.8])  # (at ½ the two weights are equal)
-def test_the_prediction_uses_the_pose_at_the_capture_time_between_two_ticks(fraction):
+# between ticks 2 and 3, and 3 and 4 (the newest two rows); not at ½, where the weights are equal
+@pytest.mark.parametrize("between, fraction", [(2, 0.25), (2, 0.8), (3, 0.3)])
+def test_the_prediction_uses_the_pose_at_the_capture_time_between_two_ticks(between, fraction):
     from rtctl.vision.observer import MarkerObserver
 
     model = load_robot(PUMA)
@@ -37,14 +38,14 @@ def test_the_prediction_uses_the_pose_at_the_capture_time_between_two_ticks(frac
     for k in range(5):
         state.position[:] = READY + RATE * k * period
         observer.update(k * period, state, ref, command)
-    capture = (2 + fraction) * period
+    capture = (between + fraction) * period
     settings = GrabberSettings(density=64, scan="frame", word_bits=8)
     blank = np.zeros((settings.rows, settings.words_per_row), dtype=np.uint8)
     observer.observe(Frame(1, capture, "frame", settings, blank, unpack))
     expected = CAMERA.project(kinematics.fk(model, READY + RATE * capture)[:3, 3])
     np.testing.assert_allclose(observer.internals["marker_predicted_px"], expected, atol=1e-6)
-    tick_before = CAMERA.project(kinematics.fk(model, READY + RATE * 2 * period)[:3, 3])
-    tick_after = CAMERA.project(kinematics.fk(model, READY + RATE * 3 * period)[:3, 3])
+    tick_before = CAMERA.project(kinematics.fk(model, READY + RATE * between * period)[:3, 3])
+    tick_after = CAMERA.project(kinematics.fk(model, READY + RATE * (between + 1) * period)[:3, 3])
     assert np.linalg.norm(tick_after - tick_before) > 1.5  # (the motion shows: the time matters)
 
 

@@ -53,3 +53,11 @@ def test_min_contrast_is_a_fraction_of_levels_minus_one(peak, found):
     img[4, 4] = peak  # 2.88 levels above the mean: not enough; 3.84: enough
     out = np.zeros(4)
     assert locate(img, (4, 4), (2, 2), 16, 0.2, out) == found
+
+
+def test_digitise_refuses_an_out_array_that_does_not_match():
+    analog = np.zeros((2, 8), dtype=np.float32)
+    for out in (np.zeros((2, 8), dtype=np.uint16), np.zeros((2, 4), dtype=np.uint8), np.zeros((8, 2), dtype=np.uint8).T,
+                [[0] * 8] * 2):
+        with pytest.raises(ValueError, match=r"out must be C-contiguous uint8 of shape \(2, 8\)"):
+            digitise(analog, 0, 1.0, 16, out)
