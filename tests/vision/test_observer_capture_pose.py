@@ -23,7 +23,8 @@ class _NoImage:
         return None
 
 
-# between ticks 2 and 3, and 3 and 4 (the newest two rows); not at ½, where the weights are equal
+# between ticks 2 and 3, and 3 and 4 (the newest two rows, where the joints have stopped: a pose
+# extrapolated from the rows before shows); not at ½, where the two weights are equal
 @pytest.mark.parametrize("between, fraction", [(2, 0.25), (2, 0.8), (3, 0.3)])
 def test_the_prediction_uses_the_pose_at_the_capture_time_between_two_ticks(between, fraction):
     from rtctl.vision.observer import MarkerObserver
@@ -36,16 +37,16 @@ def test_the_prediction_uses_the_pose_at_the_capture_time_between_two_ticks(betw
     observer.reset(state)
     period = 0.020  # ticks far apart (a PAL field): a tick's worth of motion is pixels
     for k in range(5):
-        state.position[:] = READY + RATE * k * period
+        state.position[:] = READY + RATE * min(k, 3) * period  # the joints stop at tick 3
         observer.update(k * period, state, ref, command)
     capture = (between + fraction) * period
     settings = GrabberSettings(density=64, scan="frame", word_bits=8)
     blank = np.zeros((settings.rows, settings.words_per_row), dtype=np.uint8)
     observer.observe(Frame(1, capture, "frame", settings, blank, unpack))
-    expected = CAMERA.project(kinematics.fk(model, READY + RATE * capture)[:3, 3])
+    expected = CAMERA.project(kinematics.fk(model, READY + RATE * min(capture, 3 * period))[:3, 3])
     np.testing.assert_allclose(observer.internals["marker_predicted_px"], expected, atol=1e-6)
-    tick_before = CAMERA.project(kinematics.fk(model, READY + RATE * between * period)[:3, 3])
-    tick_after = CAMERA.project(kinematics.fk(model, READY + RATE * (between + 1) * period)[:3, 3])
+    tick_before = CAMERA.project(kinematics.fk(model, READY + RATE * 2 * period)[:3, 3])
+    tick_after = CAMERA.project(kinematics.fk(model, READY + RATE * 3 * period)[:3, 3])
     assert np.linalg.norm(tick_after - tick_before) > 1.5  # (the motion shows: the time matters)
 
 
