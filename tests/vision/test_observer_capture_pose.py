@@ -1,6 +1,6 @@
 """The marker observer predicts the marker from the joint positions at the image's capture
-time, interpolated linearly between the two ticks around it: on a motion linear between ticks that is
-the exact pose at that instant — not the tick before, not the tick after. And the marker search
+time, interpolated linearly between the two ticks around it: on a motion linear between ticks
+that is the exact pose at that instant — not the tick before, not the tick after. And the marker search
 finds nothing in a box whose contrast (brightest − mean) is below ``min_contrast``, however
 bright the box (rtctl/vision/marker.py)."""
 import numpy as np
