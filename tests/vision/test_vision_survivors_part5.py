@@ -5,7 +5,9 @@
 * ``digitise_pack`` refuses, with a ValueError, any video array that is not a C-contiguous 2-D
   float32 array, an offset outside 0…255 and levels other than 2, 4, 16, 256 — before its
   compiled kernel sees them;
-* the marker's ``min_contrast`` is a fraction of the full grey scale, levels − 1.
+* the marker's ``min_contrast`` is a fraction of the full grey scale, levels − 1;
+* ``digitise`` refuses an ``out`` array that is not C-contiguous uint8 of the video's shape;
+* a device's slot stride must hold the slot header and the data.
 """
 import numpy as np
 import pytest
@@ -61,3 +63,16 @@ def test_digitise_refuses_an_out_array_that_does_not_match():
                 [[0] * 8] * 2):
         with pytest.raises(ValueError, match=r"out must be C-contiguous uint8 of shape \(2, 8\)"):
             digitise(analog, 0, 1.0, 16, out)
+
+
+def test_a_slot_stride_too_small_for_its_header_and_data_is_refused():
+    from drivers.protocols.framegrabber import SLOT_HEADER_BYTES, GrabberMemory, buffer_bytes
+    from rtctl.errors import ProtocolError
+
+    buffer = np.zeros(buffer_bytes(), dtype=np.uint8)
+    memory = GrabberMemory(buffer, create=True)
+    data = int(memory.layout[3])
+    memory.layout[2] = SLOT_HEADER_BYTES + data - 8  # a multiple of 8, one word short
+    with pytest.raises(ProtocolError, match=f"slot stride {SLOT_HEADER_BYTES + data - 8} "
+                                            f"\\(at least {SLOT_HEADER_BYTES + data},"):
+        GrabberMemory(buffer)
