@@ -7,7 +7,8 @@
   compiled kernel sees them;
 * the marker's ``min_contrast`` is a fraction of the full grey scale, levels − 1;
 * ``digitise`` refuses an ``out`` array that is not C-contiguous uint8 of the video's shape;
-* a device's slot stride must hold the slot header and the data.
+* a device's slot stride must hold the slot header and the data;
+* a camera's ``up`` is world +z unless the table gives one (of 3 numbers).
 """
 import numpy as np
 import pytest
@@ -76,3 +77,19 @@ def test_a_slot_stride_too_small_for_its_header_and_data_is_refused():
     with pytest.raises(ProtocolError, match=f"slot stride {SLOT_HEADER_BYTES + data - 8} "
                                             f"\\(at least {SLOT_HEADER_BYTES + data},"):
         GrabberMemory(buffer)
+
+
+@pytest.mark.parametrize("up", [None, [0.0, 0.0, 1.0], [0.0, 0.0, 3.0]])
+def test_a_cameras_up_is_world_z_unless_given(up):
+    """docs: ``up`` (default +z). A point straight above the looked-at one appears straight
+    above the screen's centre: same column, a smaller row."""
+    from rtctl.tomltable import Table
+    from rtctl.vision.camera import Camera
+
+    target = np.array([0.35, 0.05, 0.0])
+    options = {"position": [1.7, -1.2, 0.9], "look_at": target.tolist(), "focal_px": 760.0}
+    if up is not None:
+        options["up"] = up
+    camera = Camera.from_table(Table(options, "camera.toml", "camera"))
+    u, v = camera.project(target + [0.0, 0.0, 0.1])
+    assert u == pytest.approx(255.5, abs=1e-9) and v < 255.5 - 10
