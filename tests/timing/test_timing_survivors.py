@@ -8,9 +8,12 @@ documented behaviour:
 * the overrun warning's wake lateness is in µs;
 * doctor: the live preemption mode wins over the boot parameter, an unknown capability reads
   "unknown", and ``doctor()`` reads the idle states, the RT priority limit (against priority
-  80, the documented example) and the memlock soft limit from the machine it is given.
+  80, the documented example) and the memlock soft limit from the machine it is given, its
+  governors and a hypervisor (by the CPU flag or sysfs); a value says "?" or "none" for what
+  was not readable, and a check is an immutable value.
 """
 import ctypes
+import dataclasses
 import os
 import resource
 
@@ -132,3 +135,35 @@ def test_doctor_on_an_empty_tree_reads_nothing_from_this_machine(tmp_path, monke
     for name in ("rt_throttling", "clocksource", "transparent_hugepages", "cpu_idle", "smt"):
         assert checks[name].status == "unknown", checks[name]
     assert os.path.isdir("/proc")  # (this machine has them: the answers came from the tree)
+
+
+def test_doctor_values_say_what_was_not_readable():
+    assert d.check_rt_throttling("950000\n", None).value.startswith("RT tasks get 950000 µs per ? µs: ")
+    assert d.check_smt("off\n", None).value == "off, active ?"
+    assert d.check_isolation("", None, None).value.startswith("isolated [none], nohz_full [none], rcu_nocbs [none]:")
+    assert d.check_isolation("3\n", "3\n", "quiet rcu_nocbs=3").value == "isolated [3], nohz_full [3], rcu_nocbs [3]"
+    assert d.check_timer_slack(50_000).value == "50000 ns: sleeps may wake up to 50 µs late"
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        d.check_timer_slack(1).status = "fail"
+
+
+def test_doctor_reads_the_governors_of_the_machine_it_is_given(tmp_path, monkeypatch):
+    _limits(monkeypatch, (INF, INF), (INF, INF))
+    cpu = "sys/devices/system/cpu"
+    root = _machine(tmp_path, {f"{cpu}/cpu0/cpufreq/scaling_governor": "performance\n",
+                               f"{cpu}/cpu1/cpufreq/scaling_governor": "powersave\n",
+                               f"{cpu}/cpu2/cpufreq/scaling_governor": "\n"})  # (empty: not known)
+    (tmp_path / cpu / "cpu3" / "cpufreq" / "scaling_governor").mkdir(parents=True)  # not readable
+    governor = next(c for c in d.doctor(root=root) if c.name == "cpu_governor")
+    assert governor.status == "warn" and governor.value.startswith("cpu0 performance, cpu1 powersave:")
+
+
+@pytest.mark.parametrize("files, status", [
+    ({"proc/cpuinfo": "processor : 0\nflags : fpu vme hypervisor lm\n"}, "warn"),
+    ({"proc/cpuinfo": "processor : 0\nflags : fpu vme lm\n", "sys/hypervisor/type": "xen\n"}, "warn"),
+    ({"proc/cpuinfo": "processor : 0\nflags : fpu vme lm\n"}, "ok"),
+], ids=["cpu flag", "sysfs", "bare metal"])
+def test_doctor_sees_a_hypervisor_by_the_cpu_flag_or_sysfs(tmp_path, monkeypatch, files, status):
+    _limits(monkeypatch, (INF, INF), (INF, INF))
+    check = next(c for c in d.doctor(root=_machine(tmp_path, files)) if c.name == "virtualisation")
+    assert check.status == status
