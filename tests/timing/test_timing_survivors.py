@@ -142,7 +142,7 @@ def test_doctor_values_say_what_was_not_readable():
     assert d.check_smt("off\n", None).value == "off, active ?"
     assert d.check_isolation("", None, None).value.startswith("isolated [none], nohz_full [none], rcu_nocbs [none]:")
     assert d.check_isolation("3\n", "3\n", "quiet rcu_nocbs=3").value == "isolated [3], nohz_full [3], rcu_nocbs [3]"
-    assert d.check_timer_slack(50_000).value == "50000 ns: sleeps may wake up to 50 µs late"
+    assert d.check_timer_slack(50_500).value == "50500 ns: sleeps may wake up to 50.5 µs late"
     with pytest.raises(dataclasses.FrozenInstanceError):
         d.check_timer_slack(1).status = "fail"
 
