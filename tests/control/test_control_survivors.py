@@ -1,5 +1,6 @@
 """Tests for control mutants that survived a sample of the suite (docs/testing.md), each
-against the documented behaviour or an independent reference (the leg automaton's: tests/leg/test_leg_actions.py):
+against the documented behaviour or an independent reference (the leg automaton's are in
+tests/leg/test_leg_actions.py):
 
 * a non-finite coefficient estimate θ̂ is named as such — the first quantity checked;
 * ARMA/GMV's ``R0`` may be left out, and 0 is a valid R̂(0) (≥ 0);
@@ -14,13 +15,13 @@ import dataclasses
 import numpy as np
 import pytest
 
-from arma_loop import replaced, shipped
+from arma_loop import SHIPPED, replaced, shipped
+from rtctl.config import load_config
 from rtctl.control.base import Reference
 from rtctl.control.consistency import symmetric_eigen4
 from rtctl.control.tunable import Tunable
 from rtctl.errors import ConfigError, ControllerError
 from rtctl.hal.joints import JointCommand, JointState
-from rtctl.config import load_config
 from rtctl.runtime import build
 
 
@@ -43,7 +44,7 @@ def test_a_non_finite_coefficient_estimate_is_named(tmp_path):
 
 
 def test_r0_may_be_left_out_and_may_be_zero(tmp_path):
-    text = shipped.__globals__["SHIPPED"].read_text()
+    text = SHIPPED.read_text()
     assert "\nR0 = " in text
     cfg, c = shipped(tmp_path, R0="0.0")  # (accepted: R̂ then starts at its floor R_min)
     assert np.all(c.filter.signals[1] == cfg.controllers[0].options.float("R_min"))
