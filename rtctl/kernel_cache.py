@@ -6,8 +6,9 @@ changes — after an update, a controller or the safety stage would run code tha
 in the sources. So every process that imports rtctl, and then numba, points ``NUMBA_CACHE_DIR`` at
 ``<base>/rtctl-kernels-<hash>``, the hash taken over the content of every ``.py`` file of the
 packages that hold kernels (rtctl, drivers, hil_sim; about 180 files, 5–7 ms; no kernel reads
-their other files). Any changed source, whatever the version number says, starts an empty
-cache; nothing else does.
+their other files) and over the numba settings that change the machine code without being in
+numba's own cache key (:data:`CODEGEN_SETTINGS`). Any changed source, whatever the version
+number says, or such a setting starts an empty cache; nothing else does.
 
 ``<base>`` is ``NUMBA_CACHE_DIR`` if the user set one; else the rtctl package's
 ``__pycache__`` (a source checkout or a writable site-packages); else a per-installation
@@ -29,12 +30,18 @@ import os
 import re
 import sys
 import warnings
+from collections.abc import Mapping
 from pathlib import Path
 
 PACKAGES = ("rtctl", "drivers", "hil_sim")  # every package that defines or calls a kernel
 PREFIX = "rtctl-kernels-"
 _NAME = re.compile(re.escape(PREFIX) + r"[0-9a-f]{16}")
 _LOCK = ".lock"
+# numba settings that change the machine code it caches but not its cache index (which holds the
+# signature, the CPU and the bytecode): a kernel compiled under another value would be reused as
+# it was — with NUMBA_BOUNDSCHECK=1, set to find a bad index, a cached kernel would check nothing.
+CODEGEN_SETTINGS = ("NUMBA_BOUNDSCHECK", "NUMBA_OPT", "NUMBA_LOOP_VECTORIZE", "NUMBA_SLP_VECTORIZE",
+                    "NUMBA_ENABLE_AVX", "NUMBA_DEBUGINFO", "NUMBA_EXTEND_VARIABLE_LIFETIMES", "NUMBA_DEBUG_NRT")
 _held: int | None = None  # this process's lock on its directory (kept open for its lifetime)
 
 
@@ -48,9 +55,11 @@ def source_dirs() -> list[Path]:
     return dirs
 
 
-def source_hash(dirs: list[Path]) -> str:
-    """16 hex digits over the relative path and content of every ``.py`` file under ``dirs``."""
+def cache_key(dirs: list[Path], environ: Mapping[str, str]) -> str:
+    """16 hex digits over the relative path and content of every ``.py`` file under ``dirs``
+    and the :data:`CODEGEN_SETTINGS` that ``environ`` gives."""
     h = hashlib.blake2b(digest_size=8)
+    h.update(repr([(k, environ[k]) for k in CODEGEN_SETTINGS if k in environ]).encode())
     for top in dirs:
         skip = len(str(top.parent)) + 1  # paths relative to the package's parent: same in every copy
         for root, subdirs, files in os.walk(top):
@@ -103,7 +112,7 @@ def select() -> Path | None:
     nowhere writable, numba keeps its own default)."""
     global _held
     dirs = source_dirs()
-    name = PREFIX + source_hash(dirs)
+    name = PREFIX + cache_key(dirs, os.environ)
     bases = _bases(Path(__file__).resolve().parent)
     for base in bases:
         try:

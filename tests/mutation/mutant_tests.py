@@ -33,7 +33,7 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-from selection import select_tests, tree_source_hash  # noqa: E402  (this file's directory, after the path)
+from selection import select_tests, tree_cache_key  # noqa: E402  (this file's directory, after the path)
 
 PYTEST = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-p", "no:randomly", "-o", "addopts="]
 PREFIX = "rtctl-kernels-"
@@ -112,7 +112,7 @@ def run() -> int:
     selected, warm = None, False
     if not full and rel is not None:
         if rel not in state["closure"] and state["warm"]:
-            link_warm(HERE / "warm" / state["warm"], cache / (PREFIX + tree_source_hash(tree)))
+            link_warm(HERE / "warm" / state["warm"], cache / (PREFIX + tree_cache_key(tree, os.environ)))
             warm = True
         covered = {int(line): [state["order"][i] for i in ids]
                    for line, ids in state["covered"].get(rel, {}).items()}

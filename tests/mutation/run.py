@@ -151,7 +151,7 @@ def prepare(name: str, tree: Path, tests: str) -> None:
     test, and keep in ``<tree>/.mutation`` what the test command needs: the pristine files and
     their hashes, the kernel closure, which tests execute each line, and the compiled kernels."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from selection import fastest_first, kernel_closure, lines_to_tests, tree_source_hash
+    from selection import fastest_first, kernel_closure, lines_to_tests, tree_cache_key
 
     tools = tree / TOOLS
     shutil.rmtree(tools, ignore_errors=True)
@@ -176,7 +176,7 @@ def prepare(name: str, tree: Path, tests: str) -> None:
     if baseline.returncode != 0 or not order:
         raise SystemExit(f"{name}: the tests fail without any mutant:\n{baseline.stdout[-3000:]}")
     kernels = list((tree / ".numba").glob("rtctl-kernels-*"))
-    expected = "rtctl-kernels-" + tree_source_hash(tree)
+    expected = "rtctl-kernels-" + tree_cache_key(tree, env)
     warm = None
     if [k.name for k in kernels] == [expected]:
         shutil.move(kernels[0], tools / "warm" / expected)

@@ -20,6 +20,7 @@ import ast
 import difflib
 import importlib.util
 import re
+from collections.abc import Mapping
 from pathlib import Path
 
 PACKAGES = ("rtctl", "drivers", "hil_sim")  # as in rtctl/kernel_cache.py: the packages that hold kernels
@@ -204,13 +205,13 @@ def lines_to_tests(data_file: Path, tree: Path, files: list[str], order: list[st
     return covered
 
 
-def tree_source_hash(tree: Path) -> str:
-    """What rtctl.kernel_cache names the copy's kernel directory after, from the copy's own
-    module (loaded alone: importing rtctl would choose a directory)."""
+def tree_cache_key(tree: Path, environ: Mapping[str, str]) -> str:
+    """What rtctl.kernel_cache names the copy's kernel directory after in a process with
+    ``environ``, from the copy's own module (loaded alone: importing rtctl would choose a directory)."""
     spec = importlib.util.spec_from_file_location("_copy_kernel_cache", tree / "rtctl" / "kernel_cache.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    return module.source_hash([tree / p for p in module.PACKAGES if (tree / p).is_dir()])
+    return module.cache_key([tree / p for p in module.PACKAGES if (tree / p).is_dir()], environ)
 
 
 _DURATION = re.compile(r"^(\d+(?:\.\d+)?)s (?:setup|call|teardown)\s+(\S.*)$")

@@ -124,3 +124,41 @@ def test_a_cache_in_use_is_kept_and_a_child_process_finds_the_same_one(tmp_path)
     assert again == used and compiled == 0
     _run(tree, {"NUMBA_CACHE_DIR": str(base)})
     assert not busy.exists()  # unlocked now: removed at the next start
+
+
+PAST_THE_END = textwrap.dedent("""
+    import numpy as np
+    import rtctl  # (before numba: rtctl chooses the kernel directory)
+    from rtctl.probe_past import past
+    try:
+        past(np.zeros(3))
+        print("read")
+    except IndexError:
+        print("IndexError")
+""")
+
+
+def test_a_kernel_cached_without_bounds_checks_is_not_reused_with_them(tmp_path):
+    """numba's cache index holds no compile settings: after a run without ``NUMBA_BOUNDSCHECK``,
+    a run with it would load the unchecked kernel and read past the array. rtctl keys its
+    directory on the settings that change the machine code, so the second run compiles."""
+    tree = _copy(tmp_path)
+    (tree / "rtctl" / "probe_past.py").write_text(textwrap.dedent("""
+        from rtctl.compiled import kernel
+
+        @kernel
+        def past(a):
+            return a[a.shape[0] + 2]
+    """))
+
+    def outcome(env=None):
+        env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "NUMBA_BOUNDSCHECK")} \
+            | {"PYTHONPATH": str(tree)} | (env or {})
+        result = subprocess.run([sys.executable, "-c", PAST_THE_END], cwd=tree, env=env, capture_output=True,
+                                text=True, timeout=240)
+        assert result.returncode == 0, result.stderr[-3000:]
+        return result.stdout.strip()
+
+    assert outcome() == "read"  # compiled without the check, and cached
+    assert outcome({"NUMBA_BOUNDSCHECK": "1"}) == "IndexError"
+    assert outcome() == "read"
