@@ -5,14 +5,21 @@
 * the digitiser takes a black offset of 255 (the top of its documented 0…255);
 * the observer's allocation-free ``project_point`` is the pinhole projection, as ``project`` is:
   both against the projection written from the camera's axes (z toward the target, x = z × up
-  to the image's right, y = z × x down the image).
+  to the image's right, y = z × x down the image);
+* ``rtctl grab`` warms a framegrabber's compiled code up before it activates the device and
+  starts the wait for a first image (a compile then does not count against ``--timeout``), and
+  takes a device that has nothing to warm up.
 """
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 from drivers.protocols.framegrabber import MAX_SLOTS, MIN_SLOTS, GrabberMemory, buffer_bytes
+from rtctl.hal.framegrabber import FrameGrabber, GrabberSettings
 from rtctl.tomltable import Table
 from rtctl.vision.camera import Camera
+from rtctl.vision.grab import grab_frame
 from rtctl.vision.pixels import digitise, digitise_pack
 
 
@@ -68,3 +75,37 @@ def test_project_point_is_the_pinhole_projection():
             assert camera.project_point(p, out) is True
             assert out == pytest.approx(expected, rel=1e-9, abs=1e-6)
             assert camera.project(p) == pytest.approx(expected, rel=1e-9, abs=1e-6)
+
+
+class _Grabber(FrameGrabber):
+    """A device whose first image arrives at the second poll; it records its lifecycle."""
+
+    def __init__(self, events):
+        super().__init__("cam", GrabberSettings(density=64, scan="frame", word_bits=8))
+        self.events, self.polls = events, 0
+
+    def _on_activate(self):
+        self.events.append("activate")
+        super()._on_activate()
+
+    def _send(self, settings, t):
+        pass
+
+    def _poll(self, t):
+        self.polls += 1
+        self._latest = SimpleNamespace(copy=lambda: "the image")
+        return self.polls == 2
+
+
+class _WarmGrabber(_Grabber):
+    def warm_up(self):
+        self.events.append("warm_up")
+
+
+@pytest.mark.parametrize(("grabber", "events"), [(_WarmGrabber, ["warm_up", "activate"]), (_Grabber, ["activate"])])
+def test_grab_warms_the_device_up_before_it_activates_it(grabber, events):
+    seen = []
+    cfg = SimpleNamespace(file="cell.toml", sim=object(), loop=SimpleNamespace(period=0.001))
+    runtime = SimpleNamespace(io={"cam": grabber(seen)}, cfg=cfg)
+    assert grab_frame(runtime, None, 1.0) == ("cam", "the image")
+    assert seen == events
