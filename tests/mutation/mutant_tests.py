@@ -83,9 +83,37 @@ def run_tests(argv: list[str], limit_s: float) -> int:
             signal.signal(s, handler)
 
 
-def link_warm(warm: Path, dest: Path) -> None:
-    """Hard-link every kernel file under ``warm`` into ``dest`` (not the lock: each directory has its own)."""
-    shutil.copytree(warm, dest, copy_function=os.link, ignore=shutil.ignore_patterns(".lock"))
+def link_warm(warm: Path, dest: Path, reuse=None) -> int:
+    """Hard-link the kernel files under ``warm`` into ``dest`` (not the lock: each directory has
+    its own): every one, or those whose path relative to ``warm`` ``reuse`` accepts. → how many."""
+    linked = 0
+
+    def skip(folder: str, names: list[str]) -> list[str]:
+        nonlocal linked
+        rel = Path(folder).relative_to(warm)
+        dropped = [n for n in names if n == ".lock" or (reuse is not None and (Path(folder) / n).is_file()
+                                                        and not reuse(str(rel / n)))]
+        linked += sum(1 for n in names if n not in dropped and (Path(folder) / n).is_file())
+        return dropped
+
+    shutil.copytree(warm, dest, copy_function=os.link, ignore=skip)
+    return linked
+
+
+def reusable(state: dict, rel: str):
+    """Which of the unmutated run's kernel files a mutant in ``rel`` may reuse: every one
+    (``True``: outside the kernel closure), those of the files it cannot reach (a predicate on
+    a file's path under the warm directory; a file of no known source is never reused), or none
+    (``False``: no warm kernels, or a file that rebinds other modules' globals reaches ``rel``)."""
+    if not state["warm"]:
+        return False
+    if rel not in state["closure"]:
+        return True
+    stale = state["dependents"].get(rel)
+    if stale is None:
+        return False
+    stale = {*stale, rel}
+    return lambda entry: state["owners"].get(entry, rel) not in stale
 
 
 def main() -> int:
@@ -109,11 +137,13 @@ def run() -> int:
     shutil.rmtree(cache, ignore_errors=True)  # (the previous mutant's kernels, or a stopped run's)
     cache.mkdir()
     rel = mutated[0] if len(mutated) == 1 else None
-    selected, warm = None, False
+    selected, warm = None, "empty"
     if not full and rel is not None:
-        if rel not in state["closure"] and state["warm"]:
-            link_warm(HERE / "warm" / state["warm"], cache / (PREFIX + tree_cache_key(tree, os.environ)))
-            warm = True
+        reuse = reusable(state, rel)
+        if reuse is not False:
+            n = link_warm(HERE / "warm" / state["warm"], cache / (PREFIX + tree_cache_key(tree, os.environ)),
+                          None if reuse is True else reuse)
+            warm = "warm" if reuse is True else f"partly warm ({n} of {len(state['owners'])} kernel files)"
         covered = {int(line): [state["order"][i] for i in ids]
                    for line, ids in state["covered"].get(rel, {}).items()}
         chosen = select_tests((HERE / "pristine" / rel).read_text(), (tree / rel).read_text(), covered)
@@ -122,7 +152,7 @@ def run() -> int:
     everything = state["tests"].split() if full else state["order"]  # (the fast pass: quickest first)
     argv = PYTEST + (selected if selected is not None else everything)
     print(f"mutant in {rel}: {'all' if selected is None else len(selected)} tests, "
-          f"{'warm' if warm else 'empty'} kernel cache ({'full' if full else 'fast'} pass)", flush=True)
+          f"{warm} kernel cache ({'full' if full else 'fast'} pass)", flush=True)
     limit = time_limit(state["seconds"])
     rc = run_tests(argv, limit)
     if selected is not None and rc in (4, 5):  # (a test id pytest could not find again: all of them)

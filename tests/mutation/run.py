@@ -151,7 +151,7 @@ def prepare(name: str, tree: Path, tests: str) -> None:
     test, and keep in ``<tree>/.mutation`` what the test command needs: the pristine files and
     their hashes, the kernel closure, which tests execute each line, and the compiled kernels."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
-    from selection import fastest_first, kernel_closure, lines_to_tests, tree_cache_key
+    from selection import cache_owners, fastest_first, kernel_closure, kernel_dependents, lines_to_tests, tree_cache_key
 
     tools = tree / TOOLS
     shutil.rmtree(tools, ignore_errors=True)
@@ -188,9 +188,12 @@ def prepare(name: str, tree: Path, tests: str) -> None:
     order = fastest_first(order, baseline.stdout)
     covered = lines_to_tests(tools / "coverage", tree, files, order)
     closure = kernel_closure(tree)
+    dependents = kernel_dependents(tree)
     state = {"tests": tests, "seconds": round(baseline_s, 1),
              "files": {rel: hashlib.sha256((tree / rel).read_bytes()).hexdigest() for rel in files},
-             "closure": sorted(set(files) & closure), "warm": warm, "order": order, "covered": covered}
+             "closure": sorted(set(files) & closure), "warm": warm, "order": order, "covered": covered,
+             "dependents": {rel: dependents[rel] for rel in set(files) & closure},
+             "owners": cache_owners(tools / "warm" / warm, tree) if warm else {}}
     (tools / "baseline.json").write_text(json.dumps(state))
     print(f"{name}: unmutated run under coverage {time.monotonic() - started:.0f} s, {len(order)} tests; "
           f"{len(state['closure'])} of {len(files)} files in the kernel closure (an empty cache for their mutants)",

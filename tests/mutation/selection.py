@@ -127,24 +127,74 @@ def defines_kernels(tree_ast: ast.AST) -> bool:
     return jit_module and bool(_jit_functions(tree_ast))
 
 
+def _kernel_graph(tree: Path) -> tuple[dict[str, Path], dict[str, set[str]], set[str]]:
+    """(every module → its file, the modules each kernel-defining or module-rebinding file
+    reaches by imports — itself included —, the rebinding ones)."""
+    files = package_files(tree)
+    imports, roots, patchers = {}, [], set()
+    for name, rel in files.items():
+        parsed = ast.parse((tree / rel).read_text(), str(rel))
+        imports[name] = _imported(parsed, name, rel.name == "__init__.py", set(files)) & set(files)
+        kernels, patches = defines_kernels(parsed), _patches_modules(parsed)
+        if kernels or patches:
+            roots.append(name)
+        if patches:
+            patchers.add(name)
+
+    def reach(start: str) -> set[str]:
+        seen, todo = set(), [start]
+        while todo:
+            name = todo.pop()
+            if name not in seen:
+                seen.add(name)
+                todo.extend(imports[name] - seen)
+        return seen
+
+    return files, {r: reach(r) for r in roots}, patchers
+
+
 def kernel_closure(tree: Path) -> set[str]:
     """Relative paths (``rtctl/guard/kernels.py``) of the files whose mutants may change compiled
     code: those defining a kernel (or rebinding other modules' names) and every in-package
     module they import, transitively."""
-    files = package_files(tree)
-    imports, roots = {}, []
-    for name, rel in files.items():
-        parsed = ast.parse((tree / rel).read_text(), str(rel))
-        imports[name] = _imported(parsed, name, rel.name == "__init__.py", set(files)) & set(files)
-        if defines_kernels(parsed) or _patches_modules(parsed):
-            roots.append(name)
-    seen, todo = set(), list(roots)
-    while todo:
-        name = todo.pop()
-        if name not in seen:
-            seen.add(name)
-            todo.extend(imports[name] - seen)
-    return {str(files[n]) for n in seen}
+    files, reached, _ = _kernel_graph(tree)
+    return {str(files[n]) for names in reached.values() for n in names}
+
+
+def kernel_dependents(tree: Path) -> dict[str, list[str] | None]:
+    """For each file of the kernel closure, the files whose cached kernels a mutant there may
+    change: itself if it defines kernels, and every kernel-defining file that imports it,
+    transitively (numba freezes a kernel's callees and globals, all reached through imports).
+    ``None`` where a file that rebinds other modules' globals reaches it: any kernel may change."""
+    files, reached, patchers = _kernel_graph(tree)
+    dependents: dict[str, list[str] | None] = {}
+    for name in {n for names in reached.values() for n in names}:
+        if any(name in reached[p] for p in patchers):
+            dependents[str(files[name])] = None
+        else:
+            dependents[str(files[name])] = sorted(str(files[r]) for r, names in reached.items()
+                                                  if name in names and r not in patchers)
+    return dependents
+
+
+def cache_owners(cache: Path, tree: Path) -> dict[str, str]:
+    """Each file under the kernel directory ``cache`` (its path relative to ``cache``) → the
+    source file of ``tree`` whose functions it holds, by numba's own naming: a subdirectory per
+    source directory, files named ``<module>.<qualname>-…``. A file of no known source is left out."""
+    from numba.core.caching import _CacheLocator  # (only the runner imports numba here)
+
+    by_dir: dict[str, dict[str, str]] = {}
+    for rel in package_files(tree).values():
+        subdir = _CacheLocator.get_suitable_cache_subpath(str(tree / rel))
+        by_dir.setdefault(subdir, {})[rel.stem] = str(rel)
+    owners = {}
+    for path in cache.rglob("*"):
+        entry = path.relative_to(cache)
+        if path.is_file() and len(entry.parts) == 2:
+            source = by_dir.get(entry.parts[0], {}).get(entry.name.split(".")[0])
+            if source is not None:
+                owners[str(entry)] = source
+    return owners
 
 
 def line_kinds(source: str) -> tuple[dict[int, int], set[int]]:

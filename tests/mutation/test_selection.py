@@ -15,8 +15,9 @@ from pathlib import Path
 
 import pytest
 
-from mutant_tests import TIMED_OUT, Stopped, link_warm, run_tests
-from selection import changed_lines, fastest_first, kernel_closure, line_kinds, lines_to_tests, select_tests
+from mutant_tests import TIMED_OUT, Stopped, link_warm, reusable, run_tests
+from selection import (cache_owners, changed_lines, fastest_first, kernel_closure, kernel_dependents, line_kinds,
+                       lines_to_tests, select_tests)
 
 
 def write(root: Path, files: dict[str, str]) -> None:
@@ -84,6 +85,60 @@ class Box:
     def area(self):
         return self.size * self.size
 '''
+
+
+def test_a_files_dependents_are_the_kernel_files_that_reach_it_and_all_past_a_rebinding_one(tmp_path):
+    write(tmp_path, PACKAGE)
+    assert kernel_dependents(tmp_path) == {
+        "rtctl/sub/kern.py": ["rtctl/sub/kern.py"],  # its own kernel
+        "rtctl/compiled.py": ["rtctl/sub/kern.py"], "rtctl/consts.py": ["rtctl/sub/kern.py"],  # read by it
+        "drivers/fast.py": ["drivers/fast.py"], "drivers/table.py": ["drivers/fast.py"],
+        "rtctl/units.py": None,  # patcher.py rebinds it: any kernel may change
+        "rtctl/sub/patcher.py": None, "rtctl/report.py": None, "rtctl/__init__.py": None,
+    }
+
+
+CALLS = {  # caller.py's kernel calls callee.py's; other.py's kernel stands alone
+    "rtctl/__init__.py": "",
+    "rtctl/callee.py": "from numba import njit\nOFFSET = 1.0\n@njit(cache=True)\ndef shifted(x):\n"
+                       "    return x + OFFSET\n",
+    "rtctl/caller.py": "from numba import njit\nfrom rtctl.callee import shifted\n@njit(cache=True)\n"
+                       "def scaled(x):\n    return 10.0 * shifted(x)\n",
+    "rtctl/sub/__init__.py": "",
+    "rtctl/sub/other.py": "from numba import njit\n@njit(cache=True)\ndef doubled(x):\n    return 2.0 * x\n",
+}
+RUN_CALLS = """
+from rtctl.caller import scaled
+from rtctl.sub.other import doubled
+print(scaled(1.0), doubled(1.0), scaled.stats.cache_hits.total(), doubled.stats.cache_hits.total())
+"""
+
+
+@pytest.mark.parametrize(("mutated", "old", "new", "expected"), [
+    ("rtctl/callee.py", "OFFSET = 1.0", "OFFSET = 2.0", ["30.0", "2.0", "0", "1"]),  # the caller compiles again
+    ("rtctl/sub/other.py", "2.0 * x", "3.0 * x", ["20.0", "3.0", "1", "0"]),  # the caller is reused
+])
+def test_a_closure_mutant_reuses_the_kernels_of_the_files_it_cannot_reach(tmp_path, mutated, old, new, expected):
+    """What mutant_tests.py links for a mutant inside the kernel closure: the unmutated run's
+    kernel files, by their owners, less those of the mutated file's dependents."""
+    write(tmp_path, CALLS)
+    warm, cache = tmp_path / "warm", tmp_path / "cache"
+
+    def run(cache_dir: Path) -> list[str]:
+        out = subprocess.run([sys.executable, "-c", RUN_CALLS], cwd=tmp_path, check=True, capture_output=True,
+                             text=True, env={**os.environ, "PYTHONPATH": str(tmp_path), "NUMBA_CACHE_DIR": str(cache_dir)})
+        return out.stdout.split()
+
+    assert run(warm) == ["20.0", "2.0", "0", "0"]  # (then: value, value, cache hits of each)
+    owners = cache_owners(warm, tmp_path)
+    assert sorted(set(owners.values())) == sorted(CALLS[f] and f for f in CALLS if CALLS[f].startswith("from numba"))
+    assert len(owners) == sum(1 for p in warm.rglob("*") if p.is_file())  # every file has its owner
+    (tmp_path / mutated).write_text((tmp_path / mutated).read_text().replace(old, new))
+    dependents = kernel_dependents(tmp_path)
+    state = {"warm": warm.name, "closure": sorted(dependents), "dependents": dependents, "owners": owners}
+    linked = link_warm(warm, cache, reusable(state, mutated))
+    assert linked == sum(1 for source in owners.values() if source not in dependents[mutated])
+    assert run(cache) == expected
 
 
 def test_a_line_in_a_function_maps_to_its_statement_and_kernels_are_marked():
