@@ -13,7 +13,7 @@ work directory — cosmic-ray rewrites the source on disk, one mutant at a time,
 never run in the tree you work in — plants every mutant of the target's files in turn, runs
 the target's tests against the copy, and reports the survivors with their diffs and the
 survival rate. Not part of the suite (hours for everything); run it before changing the
-tests of these modules, and see docs/testing.md.
+tests of these modules, and see docs/mutation/index.md.
 
 Why cosmic-ray and not mutmut: mutmut 3 switches mutants at run time through trampolines and
 therefore skips every decorated function — every ``@njit`` kernel, which is where the safety
@@ -26,7 +26,7 @@ type. Swaps such as ``*`` → ``<<`` on floats (a TypeError at once) or ``==`` �
 numbers only add run time.
 
 Two passes keep that affordable without changing a verdict (``prepare``, ``mutant_tests.py``,
-``selection.py``; docs/testing.md): the fast pass gives a mutant that cannot change compiled
+``selection.py``; docs/mutation/index.md): the fast pass gives a mutant that cannot change compiled
 code the unmutated run's kernels and runs only the tests that executed its lines; every
 survivor of it runs again with all the target's tests from an empty kernel cache, and only
 a survivor of both counts.
