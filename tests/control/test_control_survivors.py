@@ -1,4 +1,4 @@
-"""Tests for control mutants that survived a sample of the suite (docs/testing.md), each
+"""Tests for control mutants that survived a sample of the suite (docs/mutation/control.md), each
 against the documented behaviour or an independent reference (the leg automaton's are in
 tests/leg/test_leg_actions.py):
 

@@ -1,4 +1,4 @@
-"""Tests for the estimation mutants that survived the suite (issue 27, part 3; docs/testing.md).
+"""Tests for the estimation mutants that survived the suite (issue 27, part 3; docs/mutation/estimation.md).
 
 The drift mean's update (26) is checked step by step against the equation itself, from the
 filter's own θ̂ before and after each step, and over a run against the printed equations

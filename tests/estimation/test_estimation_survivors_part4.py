@@ -1,5 +1,5 @@
 """Tests for the estimation mutants that survived the full mutation run with the earlier
-survivor tests (27 of 704; docs/testing.md says which are caught here and why the rest are
+survivor tests (27 of 704; docs/mutation/estimation.md says which are caught here and why the rest are
 equivalent). Each test names what it kills and checks a value worked out by hand: a history
 shift of three samples, the regressor of three lags, identify's ε and y − hᵀθ̂(k|k−1) for its
 first two steps, the residual form (27′) on a step whose sample is exactly 0 (exact fractions),

@@ -1,4 +1,4 @@
-"""Tests for the guard mutants that survived wider samples (49, then 111 mutants; docs/testing.md):
+"""Tests for the guard mutants that survived wider samples (49, then 111 mutants; docs/mutation/guard.md):
 the planner's and the runtime guard's documented input checks, each half of an ``or`` on its own,
 ``clip`` on a segment that slides along a face of the open piece (the boundary is outside), the
 clamp's outward command, the visibility route's direct segment, the guard protocol's

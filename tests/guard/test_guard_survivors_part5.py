@@ -1,4 +1,4 @@
-"""Tests for guard mutants that survived the full run's fast pass (docs/testing.md), each against
+"""Tests for guard mutants that survived the full run's fast pass (docs/mutation/guard.md), each against
 the documentation or a value worked out by hand: impedance mode's desired velocity (only its
 inward component is removed), the trajectory certificate exactly at its documented bound, the
 smooth route's fallback reported as not smooth, a scene without joints or with limits of

@@ -1,4 +1,4 @@
-"""Tests for guard mutants that survived the full run's fast pass after part5 (docs/testing.md),
+"""Tests for guard mutants that survived the full run's fast pass after part5 (docs/mutation/guard.md),
 each against the documentation or a value worked out by hand: the clamp's wall on a slanted
 face (its force along the face's unit normal, damped by the inward speed along it), the smooth
 route's certificate at half the margin, the fallback trajectory starting at the route's start,

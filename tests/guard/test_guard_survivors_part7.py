@@ -1,4 +1,4 @@
-"""Tests for guard mutants that survived the full run's fast pass after part6 (docs/testing.md),
+"""Tests for guard mutants that survived the full run's fast pass after part6 (docs/mutation/guard.md),
 each against the documentation or a value worked out by hand: the grid search ends at a node
 within one step of the goal, the clamp pushes along the faces of the piece it found — not
 along another zone's —, a move from a moving state that would come within half the margin is

@@ -1,4 +1,4 @@
-"""Tests for guard mutants that survived the suite (part 8; docs/testing.md): the joint limits
+"""Tests for guard mutants that survived the suite (part 8; docs/mutation/guard.md): the joint limits
 are closed — a segment may end exactly on a limit (a point *past* it is one beyond, as
 ``point_violation`` already holds) — checked at both ends of the segment, and a hair beyond
 each limit is named with its joint."""

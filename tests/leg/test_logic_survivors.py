@@ -1,5 +1,5 @@
 """Tests for the logic (leg synthesis) mutants that survived the suite (issue 27, part 3;
-docs/testing.md): the assignment search keeps one assignment per renaming of the flip-flops
+docs/mutation/logic.md): the assignment search keeps one assignment per renaming of the flip-flops
 (checked by trying every renaming) and tries every route choice before adding a flip-flop (the
 paper's three for its table), the replay keeps at most ``keep`` failures, a synthetic table never
 has more rows than its gates have distinct vectors, and the exact cover's budget counts every

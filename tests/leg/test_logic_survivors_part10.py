@@ -1,4 +1,4 @@
-"""Tests for logic-compiler mutants that survived the suite (part 10; docs/testing.md), each
+"""Tests for logic-compiler mutants that survived the suite (part 10; docs/mutation/logic.md), each
 against the documentation or a count worked out by hand:
 
 * a flow table is an immutable value, like the circuit built from it;

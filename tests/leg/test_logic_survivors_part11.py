@@ -1,5 +1,5 @@
 """Tests for logic-compiler mutants that survived the full run's second pass (part 11;
-docs/testing.md), each against the documented contract:
+docs/mutation/logic.md), each against the documented contract:
 
 * the minimiser takes 0 to 16 variables, whatever the function — a negative count is refused
   by name even when the ON-set is empty (where nothing else would notice);

@@ -1,4 +1,4 @@
-"""Tests for the logic (leg synthesis) mutants that survived a second sample (docs/testing.md),
+"""Tests for the logic (leg synthesis) mutants that survived a second sample (docs/mutation/logic.md),
 each against an expectation worked out by hand or taken from the documentation:
 
 * the state assignment's default firing under the exact semantics ("each transition fires on

@@ -1,4 +1,4 @@
-"""Tests for the logic (leg synthesis) mutants that survived a third sample (docs/testing.md),
+"""Tests for the logic (leg synthesis) mutants that survived a third sample (docs/mutation/logic.md),
 each against an expectation worked out by hand or taken from the documentation:
 
 * the compile report of a two-state, one-gate table: its flip-flop is named Q1 (flip-flops are

@@ -1,4 +1,4 @@
-"""Tests for the logic (leg synthesis) mutants left after the widened sample (docs/testing.md):
+"""Tests for the logic (leg synthesis) mutants left after the widened sample (docs/mutation/logic.md):
 the two branch and bounds' pruning and budgets, each against a count made by hand or the rule
 as the module documentation states it:
 

@@ -1,4 +1,4 @@
-"""Tests for logic (leg synthesis) mutants that survived the full run's fast pass (docs/testing.md),
+"""Tests for logic (leg synthesis) mutants that survived the full run's fast pass (docs/mutation/logic.md),
 each against an expectation worked out by hand, by brute force in the test, or taken from the
 documentation:
 

@@ -1,4 +1,4 @@
-"""Tests for logic (leg synthesis) mutants left by the full run (docs/testing.md): the event
+"""Tests for logic (leg synthesis) mutants left by the full run (docs/mutation/logic.md): the event
 table's checks, the PLA's input limit and the synthetic tables, each against the module
 documentation, docs/leg_automaton.md or a property worked out by hand:
 

@@ -1,4 +1,4 @@
-"""Tests for logic (leg synthesis) mutants left by the full run (docs/testing.md): the compile
+"""Tests for logic (leg synthesis) mutants left by the full run (docs/mutation/logic.md): the compile
 and replay reports and the exhaustive checks behind them, each against docs/leg_automaton.md,
 a brute-force evaluation or a case worked out by hand:
 

@@ -1,4 +1,4 @@
-"""Tests for logic-compiler mutants that survived the suite (part 9; docs/testing.md). Each
+"""Tests for logic-compiler mutants that survived the suite (part 9; docs/mutation/logic.md). Each
 expectation comes from the documentation, checked by an independent construction:
 
 * synthetic tables step their gate vectors along a Gray sequence: consecutive rows differ in

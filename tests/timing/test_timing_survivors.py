@@ -1,4 +1,4 @@
-"""Tests for timing mutants that survived the suite (docs/testing.md), each against the
+"""Tests for timing mutants that survived the suite (docs/mutation/timing.md), each against the
 documented behaviour:
 
 * values below 64 ns are exact in the loop statistics (rtctl/timing/stats.py), down to 1 ns,

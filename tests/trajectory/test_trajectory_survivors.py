@@ -1,4 +1,4 @@
-"""Tests for the trajectory mutants that survived the suite (issue 27, part 3; docs/testing.md):
+"""Tests for the trajectory mutants that survived the suite (issue 27, part 3; docs/mutation/trajectory.md):
 the limits' shape checks, and a retarget that must brake first on the way through several
 waypoints (continuity by dense sampling, each waypoint reached at rest in order)."""
 import numpy as np

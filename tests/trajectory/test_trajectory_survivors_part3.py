@@ -1,5 +1,5 @@
 """Tests for the trajectory mutants that survived the full mutation run with parts 1 and 2 in
-place (88 of 1025; docs/testing.md says which are caught here, which are equivalent and which
+place (88 of 1025; docs/mutation/trajectory.md says which are caught here, which are equivalent and which
 only tune the duration search): input checks at their exact boundary, documented messages, the
 sampler's documented end and knot behaviour, hand-computed extrema of simple polynomials and the
 closed-form rest-to-rest time."""

@@ -1,4 +1,4 @@
-"""Tests for the vision mutants that survived the suite (issue 27, part 3; docs/testing.md): the
+"""Tests for the vision mutants that survived the suite (issue 27, part 3; docs/mutation/vision.md): the
 marker search box is ``half`` pixels either side of its centre, no more, in rows and columns;
 and the observer's box keeps at least ±2 image pixels either way however small ``search_px``
 (docs/framegrabber.md), so a marker 2 rows off a prediction is still found; the centroid counts

@@ -1,5 +1,5 @@
 """Tests for the vision and framegrabber-protocol mutants that survived the suite (part 2, the
-s31 sample; docs/testing.md). Each expectation comes from the documented layout and semantics,
+s31 sample; docs/mutation/vision.md). Each expectation comes from the documented layout and semantics,
 not from what the code returns:
 
 * the WRITER section holds published, written and one sequence word per slot — 18 words for

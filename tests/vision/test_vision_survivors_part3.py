@@ -1,5 +1,5 @@
 """Tests for the vision and framegrabber-protocol mutants that survived the suite (part 3, the
-full run; docs/testing.md). Each expectation comes from the documented layout and limits:
+full run; docs/mutation/vision.md). Each expectation comes from the documented layout and limits:
 
 * a buffer is a framegrabber buffer only if it is at least the 4 KiB header long *and* starts
   with the magic — either alone is refused with a ProtocolError (an ``and`` accepted a

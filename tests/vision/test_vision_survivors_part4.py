@@ -1,5 +1,5 @@
 """Tests for the vision and framegrabber-protocol mutants that survived the suite (part 4, the
-full run; docs/testing.md). Each expectation comes from the documented protocol and defaults:
+full run; docs/mutation/vision.md). Each expectation comes from the documented protocol and defaults:
 
 * a host that loses the race for a slot (the device took it back between the host's claim and
   its second look) withdraws its claim: the claim word is −1 again, nothing is held, and the

@@ -1,4 +1,4 @@
-"""Tests for vision mutants that survived the full run's fast pass (part 5; docs/testing.md):
+"""Tests for vision mutants that survived the full run's fast pass (part 5; docs/mutation/vision.md):
 
 * ``digitise_pack`` subtracts the black offset, given in 255ths of the full video level, as
   ``digitise`` does (docs/framegrabber.md);

@@ -1,4 +1,4 @@
-"""Tests for vision mutants that survived the full run's fast pass (part 6; docs/testing.md):
+"""Tests for vision mutants that survived the full run's fast pass (part 6; docs/mutation/vision.md):
 
 * a host attaches to a buffer of any documented slot count, 4 … 16, the bounds included;
 * a camera's ``principal`` is two numbers, (u0, v0), where the line of sight meets the screen;
