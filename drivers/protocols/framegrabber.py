@@ -6,10 +6,12 @@ one buffer (``multiprocessing.shared_memory`` across processes, a plain array in
 laid out as (all integers little-endian int64)::
 
     0      magic "RTCTLFG1", then LAYOUT: version, n_slots, slot_stride, data_bytes, clock, field_ns
+           (clock: 0 = capture times on CLOCK_MONOTONIC, 1 = on the loop's clock, lock-step)
     128    REGISTERS (host → device): gen, density (horizontal), density_v, x, y, width, height, scan,
            offset, gain, levels, word_bits, shots, trigger      — a sequence lock: gen odd while written
     256    STATUS (device → host): state, applied_gen, error, fields, heartbeat_ns
     384    WRITER (device only): published slot, written, slot_seq[n_slots]
+           (slot_seq: −1 while the device writes the slot, 0 never written or given back)
     640    READER (host only):  claim, hold, read, dropped, last_seq
     4096   slot s at 4096 + s · slot_stride: header (seq, capture_ns, field, gen, nbytes,
            then the 13 registers the frame was taken with), packed words from byte 256

@@ -8,18 +8,26 @@
   to the image's right, y = z × x down the image);
 * ``rtctl grab`` warms a framegrabber's compiled code up before it activates the device and
   starts the wait for a first image (a compile then does not count against ``--timeout``), and
-  takes a device that has nothing to warm up.
+  takes a device that has nothing to warm up; without the device asked for, it names the ones
+  there are;
+* the wire's numbers are those its docstring gives, read as raw words: the clock word (0 or 1)
+  and a slot's sequence word while the device writes it (−1);
+* a slot stride that puts the slots past the buffer's end is refused;
+* ``digitise`` refuses video that is not a C-contiguous float32/float64 array;
+* a black box holds no marker, whatever the grey scale.
 """
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from drivers.protocols.framegrabber import MAX_SLOTS, MIN_SLOTS, GrabberMemory, buffer_bytes
+from drivers.protocols.framegrabber import MAX_SLOTS, MIN_SLOTS, DevicePort, GrabberMemory, buffer_bytes
+from rtctl.errors import ProtocolError, RtctlError
 from rtctl.hal.framegrabber import FrameGrabber, GrabberSettings
 from rtctl.tomltable import Table
 from rtctl.vision.camera import Camera
 from rtctl.vision.grab import grab_frame
+from rtctl.vision.marker import locate
 from rtctl.vision.pixels import digitise, digitise_pack
 
 
@@ -109,3 +117,59 @@ def test_grab_warms_the_device_up_before_it_activates_it(grabber, events):
     runtime = SimpleNamespace(io={"cam": grabber(seen)}, cfg=cfg)
     assert grab_frame(runtime, None, 1.0) == ("cam", "the image")
     assert seen == events
+
+
+@pytest.mark.parametrize(("devices", "device", "message"), [
+    ({"cam": _Grabber}, "left", "cell.toml: no framegrabber device named 'left'; framegrabber devices: cam"),
+    ({}, None, "cell.toml: framegrabber devices: none"),
+])
+def test_grab_without_the_device_names_the_framegrabbers_there_are(devices, device, message):
+    cfg = SimpleNamespace(file="cell.toml", sim=object(), loop=SimpleNamespace(period=0.001))
+    runtime = SimpleNamespace(io={name: kind([]) for name, kind in devices.items()}, cfg=cfg)
+    with pytest.raises(RtctlError) as caught:
+        grab_frame(runtime, device, 1.0)
+    assert str(caught.value) == message
+
+
+def _word(buffer, byte):
+    return int(buffer[byte:byte + 8].view("<i8")[0])
+
+
+@pytest.mark.parametrize(("clock", "word"), [("CLOCK_MONOTONIC", 0), ("CLOCK_LOOP", 1)])
+def test_the_clock_word_is_the_documented_number(clock, word):
+    from drivers.protocols import framegrabber
+
+    buffer = np.zeros(buffer_bytes(), dtype=np.uint8)
+    GrabberMemory(buffer, create=True, clock=getattr(framegrabber, clock))
+    assert _word(buffer, 8 + 8 * 4) == word  # LAYOUT: version, n_slots, slot_stride, data_bytes, clock
+
+
+def test_a_slot_being_written_reads_minus_one_and_zero_once_given_back():
+    buffer = np.zeros(buffer_bytes(), dtype=np.uint8)
+    device = DevicePort(GrabberMemory(buffer, create=True))
+    slot = device.reserve()
+    assert _word(buffer, 384 + 8 * (2 + slot)) == -1  # WRITER: published, written, slot_seq[...]
+    device.abandon(slot)
+    assert _word(buffer, 384 + 8 * (2 + slot)) == 0
+
+
+def test_a_slot_stride_that_puts_the_slots_past_the_buffer_is_refused():
+    buffer = np.zeros(buffer_bytes(), dtype=np.uint8)
+    memory = GrabberMemory(buffer, create=True)
+    stride = int(memory.layout[2]) + 8  # a multiple of 8, long enough: the last slot ends past the buffer
+    memory.layout[2] = stride
+    with pytest.raises(ProtocolError, match=f"slot stride {stride} .* {MIN_SLOTS} slots within {buffer.size} bytes"):
+        GrabberMemory(buffer)
+
+
+@pytest.mark.parametrize("analog", [np.zeros((2, 8), dtype=np.int16), np.zeros((8, 2), dtype=np.float32).T],
+                         ids=["int16", "transposed"])
+def test_digitise_refuses_video_that_is_not_contiguous_float(analog):
+    with pytest.raises(ValueError, match="analog must be a C-contiguous float32/float64 array"):
+        digitise(analog, 0, 1.0, 16, np.zeros(analog.shape, dtype=np.uint8))
+
+
+@pytest.mark.parametrize("levels", [2, 4, 16, 256])
+def test_a_black_box_holds_no_marker(levels):
+    out = np.zeros(4)
+    assert locate(np.zeros((9, 9), dtype=np.uint8), (4, 4), (2, 2), levels, 0.2, out) is False
