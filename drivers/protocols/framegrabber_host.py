@@ -189,7 +189,6 @@ class HostFrameGrabber(FrameGrabber):
         self.host.program(settings)
 
 
-
 def warm_up() -> None:
     """Load the compiled arbitration kernels before the loop starts."""
     m = GrabberMemory(np.zeros(buffer_bytes(), dtype=np.uint8), create=True)
