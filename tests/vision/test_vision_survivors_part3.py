@@ -14,7 +14,6 @@ full run; docs/mutation/vision.md). Each expectation comes from the documented l
 * the search box reaches the image's first row.
 """
 import types
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,17 +21,15 @@ import pytest
 from drivers.protocols import framegrabber_host
 from drivers.protocols.framegrabber import HEADER_BYTES, MAGIC, DevicePort, GrabberMemory, buffer_bytes
 from drivers.protocols.framegrabber_host import HostPort
-from rtctl.config import load_config
 from rtctl.errors import ConfigError, ProtocolError
 from rtctl.hal.framegrabber import Frame, GrabberSettings
 from rtctl.model import load_robot
 from rtctl.vision.camera import Camera
 from rtctl.vision.pixels import unpack
 from runtime_helpers import PUMA
-from vision_rig import CAMERA
+from vision_rig import CAMERA, observer_config
 
 SETTINGS = GrabberSettings(density=64, scan="frame", word_bits=8)
-VISION_CONFIG = Path(__file__).parents[2] / "configs/puma560_vision_sim.toml"
 IDENT = 7  # the module docstring's layout: the magic (word 0), then version … field_ns (words 1–6)
 LAYOUT_END = 128  # the LAYOUT section ends where the REGISTERS begin (byte 128)
 
@@ -108,20 +105,11 @@ def test_a_monotonic_capture_stamp_may_lead_now_by_one_millisecond(monkeypatch, 
 
 # -- the marker observer's contrast and box ---------------------------------------------------------
 
-def _observer_config(tmp_path, extra: str = ""):
-    text = VISION_CONFIG.read_text().replace("search_px = 32.0", "search_px = 32.0\n" + extra)
-    text = text.replace('"robots/puma560.toml"', f'"{VISION_CONFIG.parent / "robots/puma560.toml"}"')
-    path = tmp_path / "vision.toml"
-    path.write_text(text)
-    cfg = load_config(path)
-    return cfg, next(c for c in cfg.controllers if c.type == "marker_observer")
-
-
 @pytest.mark.parametrize("value", ["1.5", "0.0", "-0.2"])
 def test_min_contrast_is_a_fraction_of_full_scale(tmp_path, value):
     from rtctl.vision.observer import MarkerObserver
 
-    _, c = _observer_config(tmp_path, f"min_contrast = {value}")
+    _, c = observer_config(tmp_path, f"min_contrast = {value}")
     with pytest.raises(ConfigError) as e:
         MarkerObserver.from_config(c, load_robot(PUMA))
     assert e.value.key_path.endswith("min_contrast")
@@ -140,7 +128,7 @@ def test_the_default_min_contrast_is_a_fifth_of_full_scale(tmp_path, rise, found
     44.4 < 0.2 · 255 = 51 is no marker, 59.3 is."""
     from rtctl.vision.observer import MarkerObserver
 
-    _, c = _observer_config(tmp_path)
+    _, c = observer_config(tmp_path)
     observer = MarkerObserver.from_config(c, load_robot(PUMA))
     out = np.zeros(2)
     guess = Camera.to_screen(np.array([30.0, 40.0]), SETTINGS.density)

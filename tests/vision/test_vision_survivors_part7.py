@@ -6,14 +6,17 @@ Each expectation is the documented wire (docs/framegrabber.md, the protocol's mo
 * a frame taken with a register generation this host never programmed is refused — 0 (none
   yet), an odd one (being written) or one past the newest;
 * the host's words are where the layout puts them: READER at byte 640 (claim, hold, read,
-  dropped, last_seq), read as raw little-endian words.
+  dropped, last_seq), read as raw little-endian words;
+* the marker observer's ``history`` is 4 … 100 000 ticks, both ends included.
 """
 import numpy as np
 import pytest
 
-from rtctl.errors import ProtocolError
+from rtctl.errors import ConfigError, ProtocolError
 from rtctl.hal.framegrabber import GrabberSettings
-from vision_rig import programmed_pair
+from rtctl.model import load_robot
+from runtime_helpers import PUMA
+from vision_rig import observer_config, programmed_pair
 
 SETTINGS = GrabberSettings(density=64, scan="frame", word_bits=8)
 MAX_JUMP = 2 ** 20  # docs/framegrabber.md: "advances over the last frame taken (by at most 2^20)"
@@ -58,3 +61,16 @@ def test_the_hosts_words_are_at_byte_640():
     claim, hold, read, dropped, last_seq = words.tolist()
     assert frame.seq == 4
     assert (claim, hold, read, dropped, last_seq) == (-1, 1, 1, 3, 4)  # frame 4 went into slot 1
+
+
+@pytest.mark.parametrize("history, refused", [(4, None), (100_000, None), (3, "≥ 4"), (100_001, "≤ 100000")])
+def test_the_observers_history_holds_4_to_100000_ticks(tmp_path, history, refused):
+    from rtctl.vision.observer import MarkerObserver
+
+    _, c = observer_config(tmp_path, f"history = {history}")
+    if refused is None:
+        MarkerObserver.from_config(c, load_robot(PUMA))
+    else:
+        with pytest.raises(ConfigError, match=f"{refused}, got {history}") as e:
+            MarkerObserver.from_config(c, load_robot(PUMA))
+        assert e.value.key_path.endswith("history")

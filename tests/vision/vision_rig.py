@@ -1,18 +1,33 @@
 """A camera simulator and the host end of its buffer, in this process, for the vision tests."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from drivers.protocols.framegrabber import CLOCK_LOOP, DevicePort, GrabberMemory, buffer_bytes
 from drivers.protocols.framegrabber_host import HostPort
 from hil_sim.camera import CameraSim
 from hil_sim.render import Scene
+from rtctl.config import load_config
 from rtctl.model import load_robot
 from rtctl.vision.camera import Camera
 from runtime_helpers import PUMA
 
 READY = np.radians([0, 45, -180, 0, 45, 0])
 CAMERA = Camera.looking_at((1.7, -1.2, 0.9), (0.35, 0.05, 0.0), 760.0)
+VISION_CONFIG = Path(__file__).parents[2] / "configs/puma560_vision_sim.toml"
+
+
+def observer_config(tmp_path, extra: str = ""):
+    """The vision configuration with ``extra`` lines in its marker observer's options:
+    (the loaded configuration, the observer's controller section)."""
+    text = VISION_CONFIG.read_text().replace("search_px = 32.0", "search_px = 32.0\n" + extra)
+    text = text.replace('"robots/puma560.toml"', f'"{VISION_CONFIG.parent / "robots/puma560.toml"}"')
+    path = tmp_path / "vision.toml"
+    path.write_text(text)
+    cfg = load_config(path)
+    return cfg, next(c for c in cfg.controllers if c.type == "marker_observer")
 
 
 def programmed_pair(settings):
