@@ -7,19 +7,27 @@
   here by hand;
 * a camera's focal length defaults to 700 screen pixels (docs/framegrabber.md);
 * the marker observer's warm-up leaves no trace in its telemetry: before the first image the
-  measured, predicted and error pixels and the capture time are NaN, the frame number 0.
+  measured, predicted and error pixels and the capture time are NaN, the frame number 0;
+* it finds a marker in a window whose corner is not the grid's (image column + window x);
+* bound to anything but one framegrabber it names what it was given, or "none";
+* after a reset, an image captured between the first two ticks takes the joint positions
+  interpolated between them (its predicted pixel: the tool there, by forward kinematics).
 """
+import re
+
 import numpy as np
 import pytest
 
 from drivers.protocols.framegrabber import decode, encode
+from rtctl.control.base import Reference
 from rtctl.errors import SettingsError
-from rtctl.hal.framegrabber import GrabberSettings
-from rtctl.hal.joints import JointState
-from rtctl.model import load_robot
+from rtctl.hal.framegrabber import Frame, GrabberSettings
+from rtctl.hal.joints import JointCommand, JointState
+from rtctl.model import kinematics, load_robot
 from rtctl.tomltable import Table
 from rtctl.vision.camera import Camera
 from rtctl.vision.marker import locate
+from rtctl.vision.pixels import unpack
 from runtime_helpers import PUMA
 from vision_rig import CAMERA, READY
 
@@ -72,3 +80,48 @@ def test_a_cameras_focal_length_defaults_to_700_pixels():
     given = Camera.from_table(Table(dict(options, focal_px=700.0), "camera.toml", "camera"))
     points = np.array([[0.5, 0.2, 0.3], [0.0, 0.4, 0.1]])
     np.testing.assert_array_equal(default.project(points), given.project(points))
+
+
+def test_the_observer_finds_a_marker_in_a_window_off_the_grids_corner():
+    """A 32 × 16 window at grid (16, 8): image pixel (row 5, column 10) is grid (26, 13)."""
+    from rtctl.vision.observer import MarkerObserver
+
+    observer = MarkerObserver("marker", load_robot(PUMA), CAMERA)
+    settings = GrabberSettings(density=64, window=(16, 8, 32, 16), scan="frame", word_bits=8)
+    words = np.zeros((settings.rows, settings.words_per_row), dtype=np.uint8)
+    words[5, 10] = 250
+    guess = Camera.to_screen(np.array([26.0, 13.0]), settings.density)
+    out = np.zeros(2)
+    assert observer.measure(Frame(1, 0.0, "frame", settings, words, unpack), guess, out)
+    np.testing.assert_allclose(Camera.to_grid(out, settings.density), [26.0, 13.0], atol=1e-9)
+
+
+@pytest.mark.parametrize("devices", [{}, {"camera": _NoImages()}])
+def test_an_observer_without_its_framegrabber_names_what_it_was_given(devices):
+    from rtctl.vision.observer import MarkerObserver
+
+    observer = MarkerObserver("marker", load_robot(PUMA), CAMERA)
+    expected = "got none" if not devices else "got camera (_NoImages)"
+    with pytest.raises(ValueError, match=rf"exactly one framegrabber device; {re.escape(expected)}"):
+        observer.bind(devices)
+
+
+def test_an_image_between_the_first_two_ticks_after_a_reset_takes_positions_between_them():
+    from rtctl.vision.observer import MarkerObserver
+
+    model = load_robot(PUMA)
+    observer = MarkerObserver("marker", model, CAMERA)
+    observer.grabber = _NoImages()
+    state, ref, command = JointState(6), Reference(6), JointCommand(6)
+    state.position[:] = READY
+    observer.reset(state)
+    q = [READY + np.radians(10.0) * k for k in range(3)]
+    for k in range(3):  # ticks at 0, 1 and 2 ms
+        state.position[:] = q[k]
+        observer.update(0.001 * k, state, ref, command)
+    settings = GrabberSettings(density=64, scan="frame", word_bits=8)
+    words = np.zeros((settings.rows, settings.words_per_row), dtype=np.uint8)
+    observer.observe(Frame(1, 0.00025, "frame", settings, words, unpack))  # a quarter of the way from q0 to q1
+    q_at = q[0] + 0.25 * (q[1] - q[0])
+    tool = kinematics.fk(model, q_at)[:3, 3]
+    np.testing.assert_allclose(observer.internals["marker_predicted_px"], CAMERA.project(tool), atol=1e-9)
