@@ -1,6 +1,7 @@
 """Tests for timing mutants that survived the run of every mutant (docs/mutation/timing.md), part 2:
-the core-busy meter (rtctl/timing/busy.py) and the tick's compiled bookkeeping
-(rtctl/timing/record.py), each against the documented behaviour or Linux's:
+the core-busy meter (rtctl/timing/busy.py), the tick's compiled bookkeeping
+(rtctl/timing/record.py) and the real-time knobs (rtctl/timing/rt.py), each against the
+documented behaviour or Linux's:
 
 * ``rt_budget``: a runtime of 0 is a budget of 0, a period of 0 gives no budget, a period of
   1 µs is a period;
@@ -11,14 +12,31 @@ the core-busy meter (rtctl/timing/busy.py) and the tick's compiled bookkeeping
 * shares are rounded to 0.001, in the warning and the summary; a summary at the start instant
   has no mean;
 * ``bit_length`` is ``int.bit_length`` from 0; a phase not marked in a tick counts 0 even when
-  its stamp from the last tick equals the wake (a clock that did not move).
+  its stamp from the last tick equals the wake (a clock that did not move);
+* the knobs, in-process with the kernel calls replaced: each bit of CapEff (CAP_IPC_LOCK 14,
+  CAP_SYS_NICE 23) and an unreadable status file; a priority up to the soft rtprio limit is
+  allowed by it; the reports give this process's priority and CPUs (pid 0), the soft memlock
+  limit and, from the real libc in a child, the kernel's errno; timer slack 1 ns … 1 ms;
+  mlockall's flags per architecture; settings and reports are values; ``enforce`` is named.
 """
+import dataclasses
+import errno
+import importlib.util
+import io
+import os
+import platform
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
 import pytest
 import structlog
 
-from rtctl.timing import record
+from rtctl.timing import record, rt
 from rtctl.timing.busy import WARN_FRACTION, BusyMeter, rt_budget
 from rtctl.timing.clock import FakeClock
+from rtctl.timing.rt import KnobReport, KnobStatus, RtSettings, apply_rt
 from rtctl.timing.scheduler import Ticker
 
 S = 1_000_000_000
@@ -169,3 +187,186 @@ def test_a_phase_not_marked_counts_zero_when_its_old_stamp_equals_the_wake():
     ticker.end_tick()
     assert ticker.phase_ns.tolist() == [7, 0]
 
+
+
+# --- rtctl/timing/rt.py: the knobs, in-process with the kernel calls replaced -------------------
+
+EVERY_CAP = (1 << 41) - 1  # CAP_CHOWN (0) … CAP_CHECKPOINT_RESTORE (40), Linux ≥ 5.9
+
+
+def _cap_eff(monkeypatch, eff: int):
+    """/proc/self/status with this effective set (and every capability permitted), as Linux writes it."""
+    text = f"Name:\tpython3\nCapInh:\t{0:016x}\nCapPrm:\t{EVERY_CAP:016x}\nCapEff:\t{eff:016x}\n"
+
+    def fake_open(path, *args, **kw):
+        assert path == "/proc/self/status"
+        return io.StringIO(text)
+
+    monkeypatch.setattr(rt, "open", fake_open, raising=False)
+
+
+@pytest.mark.parametrize("eff, present", [
+    (1 << 23, {23}),
+    (EVERY_CAP & ~(1 << 24), set(range(41)) - {24}),  # root in a container without CAP_SYS_RESOURCE
+    (0x3000, {12, 13}),
+])
+def test_has_capability_reads_each_bit_of_the_effective_set(monkeypatch, eff, present):
+    _cap_eff(monkeypatch, eff)
+    assert {bit for bit in range(64) if rt.has_capability(bit)} == present
+
+
+def test_an_unreadable_status_file_makes_a_capability_unknown(monkeypatch):
+    def no_proc(path, *args, **kw):
+        raise FileNotFoundError(path)
+
+    monkeypatch.setattr(rt, "open", no_proc, raising=False)
+    assert rt.has_capability(23) is None
+
+
+def _refused_fifo(monkeypatch, soft_rtprio):
+    def refuse(pid, policy, param):
+        raise PermissionError
+
+    monkeypatch.setattr(os, "sched_setscheduler", refuse)
+    monkeypatch.setattr(rt.resource, "getrlimit", lambda which: (soft_rtprio, 99))
+
+
+@pytest.mark.parametrize("eff, blamed", [(1 << 23, "cgroup"), (EVERY_CAP & ~(1 << 23), "rtprio limit 10 < 80")])
+def test_a_refused_fifo_with_cap_sys_nice_blames_the_cgroup_not_the_limit(monkeypatch, eff, blamed):
+    """CAP_SYS_NICE is capability 23 (linux/capability.h): with it the rtprio limit does not apply."""
+    _refused_fifo(monkeypatch, 10)
+    _cap_eff(monkeypatch, eff)
+    assert blamed in rt._fifo(80).detail
+
+
+def test_a_priority_equal_to_the_rtprio_limit_is_allowed_by_it(monkeypatch):
+    """sched_setscheduler(2): an unprivileged thread may take priorities up to RLIMIT_RTPRIO."""
+    _refused_fifo(monkeypatch, 80)
+    _cap_eff(monkeypatch, 0)
+    report = rt._fifo(80)
+    assert report.status is KnobStatus.NOT_PERMITTED and "cgroup" in report.detail
+
+
+def test_the_fifo_report_gives_this_process_s_priority(monkeypatch):
+    """pid 0 is the calling process; pid 1 (init) runs SCHED_OTHER, priority 0."""
+    prio = {}
+    monkeypatch.setattr(os, "sched_setscheduler", lambda pid, policy, param: prio.update({pid: param.sched_priority}))
+    monkeypatch.setattr(os, "sched_getparam", lambda pid: os.sched_param(prio.get(pid, 0)))
+    assert rt._fifo(80).detail == "SCHED_FIFO priority 80"
+
+
+def _cpus(monkeypatch, mine, refuse=None):
+    """This process may run on ``mine``; init (pid 1) on 8 CPUs."""
+    allowed = {0: set(mine), 1: set(range(8))}
+
+    def set_affinity(pid, cpus):
+        if refuse:
+            raise refuse
+        allowed[pid] = set(cpus)
+
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: allowed[pid])
+    monkeypatch.setattr(os, "sched_setaffinity", set_affinity)
+
+
+def test_the_affinity_report_gives_this_process_s_cpus(monkeypatch):
+    _cpus(monkeypatch, {0, 1})
+    assert rt._affinity((1,)).detail == "CPUs [1]"
+
+
+def test_a_failed_affinity_names_the_cpus_this_process_may_use(monkeypatch):
+    _cpus(monkeypatch, {0, 1}, refuse=OSError(errno.EINVAL, os.strerror(errno.EINVAL)))
+    report = rt._affinity((7,))
+    assert report.status is KnobStatus.FAILED and report.detail.endswith("allowed [0, 1]")
+    assert report.fix == "choose CPUs among [0, 1]"
+
+
+class FakeLibc:
+    """mlockall refused; prctl's timer slack kept as Linux keeps it."""
+
+    def __init__(self):
+        self.mlockall_flags, self.slack = [], 50_000
+
+    def mlockall(self, flags):
+        self.mlockall_flags.append(flags)
+        return -1
+
+    def prctl(self, option, arg2, *unused):
+        if option == rt.PR_SET_TIMERSLACK:
+            self.slack = arg2.value
+            return 0
+        assert option == rt.PR_GET_TIMERSLACK
+        return self.slack
+
+
+@pytest.fixture
+def libc(monkeypatch):
+    fake = FakeLibc()
+    monkeypatch.setattr(rt, "_libc", lambda: fake)
+    monkeypatch.setattr(rt.platform, "system", lambda: "Linux")
+    return fake
+
+
+@pytest.mark.parametrize("eff, word", [(1 << 14, "present"), (EVERY_CAP & ~(1 << 14), "absent")])
+def test_a_refused_mlockall_gives_the_soft_memlock_limit_and_cap_ipc_lock(monkeypatch, libc, eff, word):
+    """CAP_IPC_LOCK is capability 14 (linux/capability.h); the limit that applies is the soft one."""
+    monkeypatch.setattr(rt.ctypes, "get_errno", lambda: errno.EPERM)
+    monkeypatch.setattr(rt.resource, "getrlimit", lambda which: (0, rt.resource.RLIM_INFINITY))
+    _cap_eff(monkeypatch, eff)
+    report = rt._mlockall()
+    assert report.status is KnobStatus.NOT_PERMITTED
+    assert report.detail == f"{os.strerror(errno.EPERM)}: memlock limit 0 bytes, CAP_IPC_LOCK {word}"
+
+
+@pytest.mark.parametrize("ns, applied", [(0, False), (1, True), (1_000_000, True), (1_000_001, False)])
+def test_the_timer_slack_takes_one_nanosecond_to_one_millisecond(libc, ns, applied):
+    """RtSettings: 1 ns … 1 ms (0 would ask the kernel for its default)."""
+    report = rt._timer_slack(ns)
+    assert (report.status is KnobStatus.APPLIED) == applied
+    assert libc.slack == (ns if applied else 50_000)
+
+
+def _mcl_on(monkeypatch, machine):
+    """mlockall's flags as a fresh copy of rt.py works them out on this machine."""
+    monkeypatch.setattr(platform, "machine", lambda: machine)
+    spec = importlib.util.spec_from_file_location("rt_elsewhere", rt.__file__)
+    module = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, spec.name, module)  # (its dataclasses look themselves up there)
+    spec.loader.exec_module(module)
+    return module._MCL
+
+
+@pytest.mark.parametrize("machine, flags", [
+    ("x86_64", 1 | 2), ("aarch64", 1 | 2), ("armv7l", 1 | 2), ("riscv64", 1 | 2),  # asm-generic/mman-common.h
+    ("ppc64le", 0x2000 | 0x4000), ("sparc64", 0x2000 | 0x4000), ("alpha", 8192 | 16384),  # their asm/mman.h
+])
+def test_mlockall_asks_for_current_and_future_pages_with_the_architecture_s_flags(monkeypatch, machine, flags):
+    assert _mcl_on(monkeypatch, machine) == flags
+
+
+def test_a_refused_mlockall_gives_the_kernel_s_reason():
+    """Real libc in a child without CAP_IPC_LOCK and a memlock limit of 0: mlockall(2) says EPERM."""
+    child = textwrap.dedent("""
+        import os, resource
+        from rtctl.timing import rt
+        resource.setrlimit(resource.RLIMIT_MEMLOCK, (0, 0))
+        if os.getuid() == 0:
+            os.setgid(65534); os.setuid(65534)  # loses every capability
+        print(rt._mlockall().detail)
+    """)
+    out = subprocess.run([sys.executable, "-c", child], capture_output=True, text=True, timeout=60,
+                         cwd=str(Path(rt.__file__).parents[2]))
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith(os.strerror(errno.EPERM) + ": memlock limit 0 bytes")
+
+
+def test_settings_and_reports_are_values():
+    settings, report = RtSettings(priority=80), KnobReport("mlockall", KnobStatus.OFF, "not requested")
+    for value, field in ((settings, "priority"), (report, "status")):
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            setattr(value, field, None)
+    assert {settings, RtSettings(priority=80)} == {settings} and len({report, report}) == 1
+
+
+def test_enforce_is_named_never_positional():
+    with pytest.raises(TypeError):
+        apply_rt(RtSettings(), True)
