@@ -45,7 +45,9 @@ class BusyMeter:
 
     ``sample(now_ns)`` once per tick costs one integer comparison; the thread's CPU clock is
     read only when a window is over. ``limit``: the budget to warn against (:func:`rt_budget`
-    when the loop runs SCHED_FIFO), or None for no warning.
+    when the loop runs SCHED_FIFO), or None for no warning. Shares (the warning's and the
+    summary's) are rounded to 0.001, i.e. 0.1 %: a budget in whole ms of the kernel's default
+    1 s period reads exactly.
     """
 
     def __init__(self, limit: float | None = None, *, cpu_clock=time.thread_time_ns, window_ns: int = WINDOW_NS):
@@ -83,7 +85,8 @@ class BusyMeter:
                                "(up to 50 ms)", fix="lower [loop] spin_us, or the work per tick")
 
     def summary(self, now_ns: int) -> dict:
-        """``mean`` over the whole run and ``max`` over whole windows (None before the first)."""
+        """``mean`` over the whole run (None before any wall time has passed), ``max`` over whole
+        windows (None before the first) and the ``budget``, each to 0.001."""
         wall = now_ns - self._start_wall
         mean = (self.cpu_clock() - self._start_cpu) / wall if wall > 0 else None
         return {"mean": None if mean is None else round(mean, 3),

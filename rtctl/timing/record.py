@@ -42,7 +42,9 @@ def add(counts, mx, row, x):
 @kernel
 def record_tick(counts, mx, stamps, wake_ns, end_ns, lateness_ns, paced, phase_ns):
     """Close one tick: ``phase_ns[k]`` = time from the previous mark (or the wake) to phase k's
-    mark ``stamps[k]``, 0 for a phase not marked this tick (its stamp is older than the wake);
+    mark ``stamps[k]``, 0 for a phase not marked this tick (its stamp is not after the wake: a
+    stamp equal to it may be the last tick's, on a clock that did not move; a phase marked at
+    the wake itself took 0 anyway);
     then the histograms: lateness (when ``paced``), compute time ``end_ns − wake_ns``, phases."""
     if paced:
         add(counts, mx, LATENESS, lateness_ns)
@@ -50,7 +52,7 @@ def record_tick(counts, mx, stamps, wake_ns, end_ns, lateness_ns, paced, phase_n
     prev = wake_ns
     for k in range(stamps.shape[0]):
         s = stamps[k]
-        if s < wake_ns:
+        if s <= wake_ns:
             phase_ns[k] = 0
         else:
             phase_ns[k] = s - prev
