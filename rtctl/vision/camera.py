@@ -18,6 +18,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 SCREEN = 512  # pixels across the full picture at the finest density
+FOCAL_PX = 700.0  # the default focal length, in screen pixels
+CENTRE = ((SCREEN - 1) / 2, (SCREEN - 1) / 2)  # the default principal point: the screen's centre
+UP = (0.0, 0.0, 1.0)  # the default up direction: the base's +z
 
 
 def _unit(v: np.ndarray) -> np.ndarray | None:
@@ -30,7 +33,7 @@ def _unit(v: np.ndarray) -> np.ndarray | None:
     return v / np.linalg.norm(v)
 
 
-def look_at(position, target, up=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
+def look_at(position, target, up) -> tuple[np.ndarray, np.ndarray]:
     """(R, t) of a camera at ``position`` looking at ``target`` with ``up`` up in the image."""
     position, target, up = (np.asarray(x, dtype=float) for x in (position, target, up))
     with np.errstate(over="ignore"):  # (an infinite difference is refused just below)
@@ -57,7 +60,7 @@ class Camera:
     t: np.ndarray = field(repr=False)  # base → camera translation (m)
 
     @classmethod
-    def looking_at(cls, position, target, focal_px: float = 700.0, principal=(255.5, 255.5), up=(0.0, 0.0, 1.0)):
+    def looking_at(cls, position, target, focal_px: float = FOCAL_PX, principal=CENTRE, up=UP):
         if not focal_px > 0:
             raise ValueError(f"focal length must be positive, got {focal_px}")
         R, t = look_at(position, target, up)
@@ -65,12 +68,12 @@ class Camera:
 
     @classmethod
     def from_table(cls, t) -> "Camera":
-        """``position``, ``look_at`` (m, base frame), ``up`` (default +z), ``focal_px``,
+        """``position``, ``look_at`` (m, base frame), ``up`` (default +z), ``focal_px`` (default 700),
         ``principal`` (default the screen's centre)."""
         position, target = t.vector("position", 3), t.vector("look_at", 3)
-        up = t.vector("up", 3, np.array([0.0, 0.0, 1.0]))
-        focal = t.float("focal_px", 700.0, positive=True)
-        principal = t.vector("principal", 2, np.array([255.5, 255.5]))
+        up = t.vector("up", 3, np.array(UP))
+        focal = t.float("focal_px", FOCAL_PX, positive=True)
+        principal = t.vector("principal", 2, np.array(CENTRE))
         try:
             camera = cls.looking_at(position, target, focal, principal, up)
         except ValueError as e:

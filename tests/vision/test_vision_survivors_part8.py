@@ -10,8 +10,9 @@
   measured, predicted and error pixels and the capture time are NaN, the frame number 0;
 * it finds a marker in a window whose corner is not the grid's (image column + window x);
 * bound to anything but one framegrabber it names what it was given, or "none";
-* after a reset, an image captured between the first two ticks takes the joint positions
-  interpolated between them (its predicted pixel: the tool there, by forward kinematics).
+* after a reset, an image takes the joint positions interpolated at its capture time between
+  the two ticks around it, or the newest after it (its predicted pixel: the tool there, by
+  forward kinematics).
 """
 import re
 
@@ -106,7 +107,10 @@ def test_an_observer_without_its_framegrabber_names_what_it_was_given(devices):
         observer.bind(devices)
 
 
-def test_an_image_between_the_first_two_ticks_after_a_reset_takes_positions_between_them():
+@pytest.mark.parametrize("capture, between, w", [(0.00025, 0, 0.25), (0.0015, 1, 0.5), (0.003, 2, 0.0)])
+def test_an_image_takes_the_positions_interpolated_at_its_capture_time(capture, between, w):
+    """Ticks at 0, 1 and 2 ms after a reset: an image captured a quarter of the way into the
+    first interval, halfway into the second, or after the newest tick (which it takes)."""
     from rtctl.vision.observer import MarkerObserver
 
     model = load_robot(PUMA)
@@ -115,13 +119,13 @@ def test_an_image_between_the_first_two_ticks_after_a_reset_takes_positions_betw
     state, ref, command = JointState(6), Reference(6), JointCommand(6)
     state.position[:] = READY
     observer.reset(state)
-    q = [READY + np.radians(10.0) * k for k in range(3)]
-    for k in range(3):  # ticks at 0, 1 and 2 ms
+    q = [READY + np.radians(10.0) * k for k in range(4)]
+    for k in range(3):
         state.position[:] = q[k]
         observer.update(0.001 * k, state, ref, command)
     settings = GrabberSettings(density=64, scan="frame", word_bits=8)
     words = np.zeros((settings.rows, settings.words_per_row), dtype=np.uint8)
-    observer.observe(Frame(1, 0.00025, "frame", settings, words, unpack))  # a quarter of the way from q0 to q1
-    q_at = q[0] + 0.25 * (q[1] - q[0])
+    observer.observe(Frame(1, capture, "frame", settings, words, unpack))
+    q_at = q[between] + w * (q[between + 1] - q[between])
     tool = kinematics.fk(model, q_at)[:3, 3]
     np.testing.assert_allclose(observer.internals["marker_predicted_px"], CAMERA.project(tool), atol=1e-9)
