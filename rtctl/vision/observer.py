@@ -31,9 +31,14 @@ from rtctl.vision.marker import locate
 from rtctl.vision.pixels import unpack
 
 
+SEARCH_PX = 32.0  # the search box's half-size by default, in screen pixels
+MIN_CONTRAST = 0.2  # the least brightest-minus-mean of a marker by default, a fraction of full scale
+HISTORY = 256  # ticks of joint positions remembered by default
+
+
 class MarkerObserver(Controller):
-    def __init__(self, name, model, camera: Camera, *, divisor: int = 1, search_px: float = 32.0,
-                 min_contrast: float = 0.2, history: int = 256):
+    def __init__(self, name, model, camera: Camera, *, divisor: int = 1, search_px: float = SEARCH_PX,
+                 min_contrast: float = MIN_CONTRAST, history: int = HISTORY):
         super().__init__(name, model, joints=(), divisor=divisor)
         self.camera, self.search_px, self.min_contrast = camera, float(search_px), float(min_contrast)
         self.grabber: FrameGrabber | None = None
@@ -57,9 +62,9 @@ class MarkerObserver(Controller):
         if c.joints:
             raise o.error("joints", "[] — an observer owns no joint command")
         camera = Camera.from_table(o.table("camera"))
-        obs = cls(c.name, model, camera, divisor=c.divisor, search_px=o.float("search_px", 32.0, positive=True),
-                  min_contrast=o.float("min_contrast", 0.2, positive=True, max=1.0),
-                  history=o.int("history", 256, min=4, max=100_000))
+        obs = cls(c.name, model, camera, divisor=c.divisor, search_px=o.float("search_px", SEARCH_PX, positive=True),
+                  min_contrast=o.float("min_contrast", MIN_CONTRAST, positive=True, max=1.0),
+                  history=o.int("history", HISTORY, min=4, max=100_000))
         o.done()
         return obs
 

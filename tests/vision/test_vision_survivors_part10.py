@@ -7,7 +7,8 @@ Each expectation is the documented wire (the protocol's module docstring, docs/f
 * on the loop's clock a capture stamp may not lead the host's tick time at all: 1 ns later is
   refused (the 1 ms lead is for CLOCK_MONOTONIC stamps only);
 * a frame the host releases is free for the device again;
-* a count word (frames written) must be below 2^62: 2^62 itself is refused.
+* a count word (frames written) must be below 2^62: 2^62 itself is refused;
+* the observer's search box reaches ±32 screen pixels by default.
 """
 import numpy as np
 import pytest
@@ -16,8 +17,12 @@ from drivers.protocols.framegrabber import (CLOCK_LOOP, RUNNING, S_STATE, W_WRIT
                                             buffer_bytes)
 from drivers.protocols.framegrabber_host import HostPort
 from rtctl.errors import ProtocolError
-from rtctl.hal.framegrabber import GrabberSettings
-from vision_rig import programmed_pair
+from rtctl.hal.framegrabber import Frame, GrabberSettings
+from rtctl.model import load_robot
+from rtctl.vision.camera import Camera
+from rtctl.vision.pixels import unpack
+from runtime_helpers import PUMA
+from vision_rig import CAMERA, programmed_pair
 
 SETTINGS = GrabberSettings(density=64, scan="frame", word_bits=8)
 
@@ -87,3 +92,18 @@ def test_a_count_word_stays_below_two_to_the_62(written, refused):
             HostPort(memory)
     else:
         assert HostPort(memory).written == 0
+
+
+@pytest.mark.parametrize("offset, found", [(32, True), (33, False)])
+def test_the_search_box_reaches_32_screen_pixels_by_default(offset, found):
+    """At density 512 a screen pixel is an image pixel: a marker 32 columns from the guess is
+    in the default box, one 33 columns away is not."""
+    from rtctl.vision.observer import MarkerObserver
+
+    observer = MarkerObserver("marker", load_robot(PUMA), CAMERA)
+    settings = GrabberSettings(density=512, scan="frame", word_bits=8)
+    words = np.zeros((settings.rows, settings.words_per_row), dtype=np.uint8)
+    words[200, 100 + offset] = 250
+    out = np.zeros(2)
+    guess = Camera.to_screen(np.array([100.0, 200.0]), settings.density)
+    assert observer.measure(Frame(1, 0.0, "frame", settings, words, unpack), guess, out) is found
