@@ -203,10 +203,8 @@ class GrabberMemory:
             self.reader[[H_CLAIM, H_HOLD]] = -1
         else:
             _check_layout(self.layout, raw.size)
-        self.n_slots = int(self.layout[L_SLOTS])
+        self.n_slots = int(self.layout[L_SLOTS])  # (checked above: made so, or by _check_layout)
         stride = int(self.layout[L_STRIDE])
-        if not MIN_SLOTS <= self.n_slots <= MAX_SLOTS or raw.size < HEADER_BYTES + self.n_slots * stride:
-            raise ProtocolError(f"framegrabber buffer of {raw.size} bytes does not hold {self.n_slots} slots")
         self.ident = np.ndarray((IDENT_WORDS,), dtype="<i8", buffer=buffer, offset=0)
         self.clock = int(self.layout[L_CLOCK])
         self.slot_headers = [np.ndarray((F_REGS + len(REG_NAMES),), dtype="<i8", buffer=buffer,

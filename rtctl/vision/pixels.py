@@ -146,7 +146,8 @@ def unpack(words: np.ndarray, bits: int, out: np.ndarray) -> np.ndarray:
 
 
 def pack(pixels: np.ndarray, bits: int, word_bits: int, out: np.ndarray | None = None) -> np.ndarray:
-    """Grey levels (rows, width) uint8, each < 2^bits → words (rows, width·bits/word_bits)."""
+    """Grey levels (rows, width) uint8, each < 2^bits → words (rows, width·bits/word_bits).
+    A level's higher bits are dropped: they never reach its neighbours' bits."""
     _check_bits(bits)
     _check_pixels(pixels, "pixels")
     if word_bits not in WORD_DTYPES:
