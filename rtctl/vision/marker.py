@@ -53,6 +53,8 @@ def locate(img: np.ndarray, center, half: tuple[int, int], levels: int, min_cont
         raise ValueError(f"img must be a 2-D uint8 array, got {getattr(img, 'shape', None)} {getattr(img, 'dtype', None)}")
     if not isinstance(out, np.ndarray) or out.shape != (4,) or out.dtype != np.float64:
         raise ValueError("out must be a float64 array of 4")
+    if levels not in (2, 4, 16, 256) or not 0 < min_contrast <= 1:  # (0: a flat box's centroid has no weight)
+        raise ValueError(f"levels 2/4/16/256 and min_contrast in (0, 1], got {levels}, {min_contrast}")
     row, col = center
     if not (np.isfinite(row) and np.isfinite(col)):
         return False
