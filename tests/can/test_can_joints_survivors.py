@@ -2,9 +2,11 @@
 frames that are no drive's answer (error, foreign, extended-id, malformed — and a drive's spare
 copy) neither answer another drive nor count as late or extra replies, a bus error while
 collecting is a lost bus, effort scaled by the torque constant, one enter-motor-mode frame, no
-stale ticks left over from an earlier activation, and the budget at the loop rate itself.
-What is left unchecked, and why, is in docs/mutation/can_joints.md."""
+stale ticks at activation, the budget at the loop rate itself, and the exit's accounting of
+replies owed: given up on long ago, written off between attempts, a spare copy, a Damiao drive's
+motor-on answer. What is left unchecked, and why, is in docs/mutation/can_joints.md."""
 import dataclasses
+import time
 from types import SimpleNamespace
 
 import can
@@ -169,3 +171,113 @@ def test_the_budget_is_at_the_loop_rate_itself_not_rounded_down():
     context = SimpleNamespace(model=SimpleNamespace(joint_names=["a", "b"]), period=0.001, shared={})
     with pytest.raises(BusLoadError):
         MitCanJointGroup.from_config(device, context)
+
+
+def exit_frames(drive) -> int:
+    return drive.counters.specials
+
+
+def test_a_reply_given_up_on_long_ago_does_not_hold_up_the_exit(rig):
+    """Drive b missed one tick, more than exchange_timeout before deactivate: that reply is lost
+    (the driver's docstring), so b's answer to the first exit frame is its answer — one frame
+    (catches the owed replies forgotten at every write, which made every tick a fresh give-up)."""
+    r = rig(exchange_timeout=0.3)
+    r.activate()
+    r.tick()
+    r.drive_list[1].faults.silent = True
+    r.tick()
+    r.read(r.now)  # b's reply is missing …
+    r.drive_list[1].faults.silent = False
+    r.write(r.now)  # … and given up on here
+    time.sleep(0.35)  # longer ago than exchange_timeout
+    for _ in range(3):
+        assert r.tick() == (Status.OK, Status.OK)
+    r.read(r.now)
+    before = [exit_frames(d) for d in r.drive_list]
+    r.deactivate()
+    assert [exit_frames(d) - b for d, b in zip(r.drive_list, before)] == [1, 1]
+
+
+def test_replies_given_up_on_are_lost_once_exchange_timeout_passed_during_the_exit(rig):
+    """Drive b missed two ticks just before deactivate: its answer to the first exit frame may be
+    one of those late replies, but once exchange_timeout has passed since they were sent they are
+    lost and b's answer to the second frame counts — two frames, not three (catches the lost
+    replies not written off between attempts)."""
+    r = rig(exchange_timeout=0.3)
+    r.activate()
+    r.tick()
+    r.drive_list[1].faults.silent = True
+    r.tick()
+    r.tick()
+    r.tick()  # b missed two ticks' commands, the owed replies given up on at each write
+    r.drive_list[1].faults.silent = False
+    r.read(r.now)
+    before = exit_frames(r.drive_list[1])
+    r.deactivate()
+    assert exit_frames(r.drive_list[1]) - before <= 2
+
+
+def test_a_spare_reply_does_not_make_a_late_reply_the_answer_to_exit_motor_mode(rig):
+    """Drive b's reply came twice one tick; later the drives fall silent behind a held wire and
+    their late replies to the last commands arrive during deactivate: neither drive answered
+    exit motor mode, and the error names both (catches a spare copy counted as a reply heard
+    beyond the frames sent)."""
+    r = rig(cls=SlowRig)
+    r.activate()
+    r.tick()
+    r.read(r.now)
+    r.write(r.now)
+    r.peer.send(can.Message(arbitration_id=r.master_id, data=pack_reply(KATZ, 2, 0.0, 0.0, 0.0),
+                            is_extended_id=False))  # b's answer, received twice
+    r.read(r.now)
+    assert r.counters["extra_replies"] == 1
+    r.hold = True
+    r.write(r.now)  # the answers to these commands are held back …
+    r.read(r.now)
+    pump(r.drives, r.peer, now=r.now)  # … and arrive now, late; exit motor mode is never answered
+    r.deactivate()  # never raises: the failure is the device's last error
+    r.hold = False
+    assert "drive(s) 0x1, 0x2 did not answer exit motor mode" in r.last_error
+
+
+def test_a_frame_that_is_no_reply_does_not_answer_exit_for_a_drive_that_said_motor_on(rig):
+    """Damiao drives: b answers exit motor mode with the motor still on, then a foreign frame
+    carrying a motor-off reply arrives: b has not answered (catches the ignored frame's row −1
+    read as the last row)."""
+    from drivers.protocols.mit import DRIVE_MODELS
+
+    dm = DRIVE_MODELS["dm4310"]
+    r = rig([MitJoint("a", 1, dm), MitJoint("b", 2, dm)], cls=SlowRig)
+    r.activate()
+    r.tick()
+    r.read(r.now)
+    r.hold = True
+    for frame in (pack_reply(dm, 1, 0.0, 0.0, 0.0, enabled=False), pack_reply(dm, 2, 0.0, 0.0, 0.0, enabled=True)):
+        r.peer.send(can.Message(arbitration_id=r.master_id, data=frame, is_extended_id=False))
+    r.peer.send(can.Message(arbitration_id=0x123, data=pack_reply(dm, 2, 0.0, 0.0, 0.0, enabled=False),
+                            is_extended_id=False))
+    r.deactivate()  # never raises: the failure is the device's last error
+    r.hold = False
+    assert "drive(s) 0x2 answered exit motor mode with the motor on" in r.last_error
+    assert "0x1" not in r.last_error
+
+
+def test_a_drive_that_first_says_motor_on_then_off_has_answered_with_the_first_frame(rig):
+    """Damiao drives: b's first reply to exit motor mode says the motor is on, its next says off
+    (within the same wait): every drive has answered, so no second exit frame goes out (catches
+    a motor-on reply counted as one more answer awaited)."""
+    from drivers.protocols.mit import DRIVE_MODELS
+
+    dm = DRIVE_MODELS["dm4310"]
+    r = rig([MitJoint("a", 1, dm), MitJoint("b", 2, dm)], cls=SlowRig)
+    r.activate()
+    r.tick()
+    r.read(r.now)
+    r.hold = True
+    for drive_id, on in ((1, False), (2, True), (2, False)):
+        r.peer.send(can.Message(arbitration_id=r.master_id, data=pack_reply(dm, drive_id, 0.0, 0.0, 0.0, enabled=on),
+                                is_extended_id=False))
+    r.deactivate()
+    assert r.last_error is None or "exit motor mode" not in r.last_error
+    assert pump(r.drives, r.peer, now=r.now) == 2  # one exit frame per drive on the wire
+    r.hold = False
