@@ -280,8 +280,12 @@ class MitCanJointGroup(CanJointGroup):
             mit.pack_command_into(messages[i].data, models[i], p[i], v[i], kp[i], kd[i], tau[i])
         try:
             bus = self.bus
-            if min(self._replied) < self._sent:  # answers missing at the last read: late or lost
-                self._drain(self._take_late)  # the late ones are here by now (no wait)
+            late = min(self._replied) < self._sent  # answers missing at the last read: late or lost
+            # what came since the last collection (a late answer, a copy) answers nothing sent now;
+            # over slcan, where an empty read waits out the serial timeout, only when one is late
+            if late or not self._acks_per_send:
+                self._drain(self._take_late if late else self._take_extra)
+            if late:
                 self._forget_owed()  # the rest are as good as lost
             for m in messages:
                 bus.send(m)

@@ -316,6 +316,29 @@ def test_a_reply_received_twice_is_no_later_ticks_answer_so_the_measurement_stay
     assert r.state.fresh.tolist() == [True, False]
 
 
+def test_a_copy_received_between_a_collection_and_the_next_commands_answers_nothing(rig):
+    """A copy of drive 2's reply that arrives after the collection's drain and before the next
+    commands go out: taken as the answer to those commands, drive 2 read fresh at the old
+    position although it never answered them. Every write now takes what arrived before it."""
+    from drivers.protocols.mit import pack_reply
+
+    r = rig()
+    r.activate()
+    r.q[:] = 0.1
+    r.tick()
+    r.now += 0.001
+    assert r.read(r.now) == Status.OK and r.state.fresh.all()  # the answers with 0.1
+    r.peer.send(can.Message(arbitration_id=r.master_id, data=pack_reply(KATZ, 2, 0.1, 0.0, 0.0),
+                            is_extended_id=False))  # drive 2's answer once more
+    r.drive_list[1].faults.silent = True  # … and then drive 2 answers nothing
+    r.q[:] = 0.3
+    r.write(r.now)
+    r.now += 0.001
+    r.read(r.now)
+    assert r.state.fresh.tolist() == [True, False] and r.state.position[0] == pytest.approx(0.3, abs=0.01)
+    assert r.counters["missing_replies"] == 1 and r.counters["extra_replies"] == 1
+
+
 def test_a_reply_later_than_the_next_commands_is_not_their_answer_so_the_measurement_stays_one_period_old(slow_rig):
     """A reply so late that it arrives after the next commands went out (the write found nothing
     to drain) was that collection's answer, and the real one was left in the buffer to answer
