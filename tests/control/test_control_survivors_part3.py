@@ -8,6 +8,8 @@ documented behaviour or an independent reference:
   and no preview on the first update (checked against :func:`gmv_control`);
 * the telemetry's â, b̂, r̂ are the estimates the law used;
 * ρ must be finite and > 0 (constructor and ``rtctl set``), u_max > 0 (the law);
+* the margins: M's numerical range independent of its units, a P unstable at its configured
+  gain gets its margin below 1 from the grid, the loop points along the move with the drive train.
 * the documented defaults, from the constructor and from a configuration that leaves them out;
 * the options' shapes: r0 may be negative, one row of θ̂(0) for every joint, no booleans, Q0 ≥ 0.
 """
@@ -226,3 +228,59 @@ def test_the_law_names_the_lengths_it_got_and_needs_a_positive_limit():
     for u_max in (0.0, -0.5):
         with pytest.raises(ValueError, match="u_max must be > 0"):
             gmv_control(theta, 0.0, 0.0, [0, 0], [0, 0, 0], order, 1.0, 1e-9, u_max=u_max)
+
+
+# the stability margins (rtctl.control.margins)
+
+@pytest.mark.parametrize("scale", [1e-6, 1.0, 1e6])
+def test_the_range_of_the_adaptation_stiffness_does_not_depend_on_its_units(scale):
+    """M = c·diag(900, 10⁻⁵): both directions are excited (10⁻⁵/900 ≫ rounding) whatever the
+    unit c of M, so the map keeps two directions of w: size (d + 1) n + 2."""
+    from rtctl.control.margins import closed_loop
+
+    A = closed_loop(np.eye(2), np.array([40.0, 10.0]), scale * np.diag([900.0, 1e-5]), 0.002, 1)
+    assert A.shape == (2 * 2 + 2, 2 * 2 + 2)
+
+
+def test_an_adaptation_unstable_at_the_configured_gain_gets_its_margin_below_one():
+    """The scalar loop without delay is stable for P factors f < k / (T μ) (Jury, as in
+    tests/control/test_margins.py); with μ ten times larger than k/T, f = 1 is unstable and the
+    largest stable factor is k / (T μ) = 0.1, found from the grid below 1."""
+    from rtctl.control.margins import point_margins
+
+    h, k, T = 0.19, 15.0, 0.002
+    mu = 10.0 * k / T
+    m = point_margins(np.array([[h]]), np.array([k]), np.array([[mu]]), T, 0)
+    assert m.rho > 1.0
+    assert m.p_max == pytest.approx(k / (T * mu), rel=1e-5)
+
+
+def test_loop_points_follow_the_trajectory_from_its_start_with_the_drive_train(puma):
+    """(H, M, K_D + B) at the start, middle and end of a move, computed by hand from the model:
+    H with the rotors' armature and the damping with the viscous friction by default
+    (``motor_model``), K_D alone without; M = Y diag(P) Yᵀ with the regressor at q̇_r = q̇_d."""
+    from rtctl.control.margins import loop_points
+    from rtctl.control.slotine_li import SlotineLi
+    from rtctl.model.dynamics import mass_matrix
+    from rtctl.model.regressor import slotine_li_regressor
+    from rtctl.trajectory import JointLimits, through_waypoints
+
+    c = SlotineLi(puma, params0="zeros", gamma=2.0, kd=50.0)
+    n = puma.nq
+    start = np.array([0.0, 0.7854, -3.1416, 0.0, 0.7854, 0.0])
+    limits = JointLimits(np.full(n, 10.0), np.full(n, 50.0), puma.q_min, puma.q_max)
+    traj = through_waypoints([start + 0.3], limits, start=start, durations=[1.0], t0=2.0)
+    points = list(loop_points(puma, c, traj, samples=3))
+    bare = list(loop_points(puma, c, traj, samples=3, motor_model=False))
+    assert len(points) == 3
+    motors = puma.motors
+    for (H, M, D), (H0, _, D0), t in zip(points, bare, [2.0, 0.5 * (2.0 + traj.t_end), traj.t_end]):
+        q, qd, qdd = np.zeros(n), np.zeros(n), np.zeros(n)
+        traj.sample(t, q, qd, qdd)
+        np.testing.assert_allclose(H, mass_matrix(puma, q) + np.diag(motors.armature), rtol=1e-12)
+        np.testing.assert_allclose(H0, mass_matrix(puma, q), rtol=1e-12)
+        np.testing.assert_allclose(D, 50.0 + motors.viscous, rtol=1e-12)
+        np.testing.assert_array_equal(D0, np.full(n, 50.0))
+        Y = slotine_li_regressor(puma, q, qd, qd, qdd, "cstar")
+        np.testing.assert_allclose(M, Y @ np.diag(c.gamma.reshape(-1)) @ Y.T, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(points[0][0], mass_matrix(puma, start) + np.diag(motors.armature), rtol=1e-9)
