@@ -10,6 +10,8 @@ documented behaviour or an independent reference:
 * ρ must be finite and > 0 (constructor and ``rtctl set``), u_max > 0 (the law);
 * the margins: M's numerical range independent of its units, a P unstable at its configured
   gain gets its margin below 1 from the grid, the loop points along the move with the drive train.
+* the op counter: a counted division is a true division (counted as a multiplication), its
+  comparisons are strict; an adapting tick adapts however small the error (no dead zone).
 * the documented defaults, from the constructor and from a configuration that leaves them out;
 * the options' shapes: r0 may be negative, one row of θ̂(0) for every joint, no booleans, Q0 ≥ 0.
 """
@@ -284,3 +286,33 @@ def test_loop_points_follow_the_trajectory_from_its_start_with_the_drive_train(p
         Y = slotine_li_regressor(puma, q, qd, qd, qdd, "cstar")
         np.testing.assert_allclose(M, Y @ np.diag(c.gamma.reshape(-1)) @ Y.T, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(points[0][0], mass_matrix(puma, start) + np.diag(motors.armature), rtol=1e-9)
+
+
+# the operation counter (rtctl.control.opcount)
+
+def test_counted_division_is_true_division_counted_as_a_multiplication_and_comparisons_are_strict():
+    from rtctl.control.opcount import Counted, Tally
+
+    Counted.tally = Tally()
+    q = Counted(7.0) / 2.0
+    assert float(q) == 3.5 and (Counted.tally.mul, Counted.tally.add) == (1, 0)
+    one = Counted(1.0)
+    assert not one < 1.0 and not one > 1.0  # comparisons as on floats (and not counted)
+    assert one < 1.5 and not one < 0.5 and one > 0.5 and not one > 1.5
+    assert (Counted.tally.mul, Counted.tally.add) == (1, 0)
+
+
+def test_an_adapting_tick_counts_the_adaptation_however_small_the_error(puma):
+    """``adapt=True``: the parameter update runs (no dead zone) even for ‖s‖ ≪ 1, so it counts
+    more than the control law alone and gives a non-zero dπ̂/dt."""
+    from rtctl.control.opcount import count_slotine_li_tick
+    from rtctl.control.slotine_li import SlotineLi
+
+    n = puma.nq
+    c = SlotineLi(puma, lam=5.0, kd=5.0, gamma=1.0)
+    q = np.full(n, 0.3)
+    state = (q, np.full(n, 1e-3), q + 1e-3, np.zeros(n), np.zeros(n))  # ‖s‖ ≈ 10⁻², s² ≈ 10⁻⁴
+    on, _, rate = count_slotine_li_tick(puma, "cstar", state, c.params_hat, c.gamma, c.lam, c.kd, adapt=True)
+    off, _, none = count_slotine_li_tick(puma, "cstar", state, c.params_hat, c.gamma, c.lam, c.kd, adapt=False)
+    assert on.mul > off.mul and on.add > off.add
+    assert np.abs(rate).max() > 0.0 and np.all(none == 0.0)
