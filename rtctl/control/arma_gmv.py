@@ -105,6 +105,9 @@ class ArmaGmv(Controller):
     (diagonal of P(0)), ``q0``, ``Q0`` (diagonal of Q̂(0)), ``Q_min``: a number, na + nb + 1
     numbers, or one such row per owned joint; ``adapt``: the switched-on adaptations among
     ``"r", "R", "q", "Q"``; the rest as :class:`~rtctl.estimation.sage_husa.SageHusa`.
+    Defaults (also for the options a configuration leaves out): na = nb = 2, d = 1, λ = 0.98,
+    r0 = q0 = Q0 = Q_min = 0, R0 = 10⁻⁸, R_min = 10⁻¹², r̂ and R̂ adapted, the ``"sage_husa"``
+    form, ``divisor`` 1.
     """
 
     def __init__(self, model, *, theta0, P0, rho, order: ArxOrder = ArxOrder(), lam=0.98, r0=0.0, R0=1e-8, q0=0.0,
@@ -167,7 +170,8 @@ class ArmaGmv(Controller):
         return {"rho": Tunable(self.joint_params[RHO], lambda t, k: _per_joint(t, k, m, positive=True))}
 
     def reset(self, state=None) -> None:
-        """Initial estimates; histories start at the measured position (``state``) with u = 0."""
+        """Initial estimates; histories start at the measured position (``state``; 0 without
+        one) with u = 0."""
         f = self.filter
         f.reset()
         self.u_hist[:] = 0.0
@@ -177,7 +181,7 @@ class ArmaGmv(Controller):
 
     def resume(self, state=None) -> None:
         """Keep θ̂, P and the noise statistics; restart the histories from ``state`` (the
-        samples before the controller was inactive say nothing of now)."""
+        samples before the controller was inactive say nothing of now; 0 without a state)."""
         self.u_hist[:] = 0.0
         self.y_hist[:] = 0.0 if state is None else state.position[self.joints]
         self.iset[PRIMED] = 0

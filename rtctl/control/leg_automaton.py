@@ -22,7 +22,8 @@ Options (``[[controllers]]``, type ``leg_automaton``)::
     gates.h_d2 = { channel = "hip", threshold = -11, hysteresis = 2, below = true }
 
 Angles (channels hip, knee, ankle) in degrees, loads (toe, heel) in body weights; ``below``:
-the gate is 1 when the channel is under the threshold. Telemetry: ``leg_state`` (the
+the gate is 1 when the channel is under the threshold; a gate's ``hysteresis`` is 0 (the plain
+comparator) when left out. After a reset every gate is off. Telemetry: ``leg_state`` (the
 automaton's state), ``leg_gates``, ``leg_actions`` (knee, ankle), ``leg_settle`` (passes
 that changed the state this tick), ``leg_channels``.
 """
