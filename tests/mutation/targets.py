@@ -5,7 +5,7 @@ times the unmutated run, usually comes first)."""
 TARGETS = {
     "safety": (["rtctl/safety"], "tests/safety", 240),
     "timing": (["rtctl/timing"], "tests/timing", 180),
-    "busload": (["rtctl/busload.py"], "tests/can/test_busload.py", 180),
+    "busload": (["rtctl/busload.py"], "tests/can/test_busload.py tests/can/test_busload_survivors.py", 180),
     # drivers/protocols, one target per protocol so each mutant runs only its own tests ("protocols": all)
     "protocols-mit": (["drivers/protocols/mit.py", "drivers/protocols/mit_layout.py"],
                       "tests/can/test_mit_layout.py tests/can/test_mit_codec.py tests/can/test_mit_drive.py "
@@ -15,7 +15,7 @@ TARGETS = {
                          "tests/can/test_cia402_driver.py", 240),
     "protocols-leg": (["drivers/protocols/leg_board.py"], "tests/leg/test_codec.py tests/leg/test_serial_board.py", 180),
     "can_joints": (["drivers/can_joints.py"], "tests/can/test_mit_can_driver.py tests/can/test_mit_can_config.py "
-                   "tests/hil/test_can_config.py", 240),
+                   "tests/can/test_can_joints_survivors.py tests/hil/test_can_config.py", 240),
     "urdf": (["rtctl/model/urdf.py"], "tests/model/test_urdf.py", 180),
     "control": (["rtctl/control"], "tests/control tests/leg/test_controller.py tests/leg/test_leg_actions.py", 600),  # (the leg automaton's)
     # issue 27 part 3: the newer modules (the guard's and the CiA 402 driver's are safety-relevant)
