@@ -16,7 +16,7 @@ TARGETS = {
     "protocols-leg": (["drivers/protocols/leg_board.py"], "tests/leg/test_codec.py tests/leg/test_serial_board.py", 180),
     "can_joints": (["drivers/can_joints.py"], "tests/can/test_mit_can_driver.py tests/can/test_mit_can_config.py "
                    "tests/can/test_can_joints_survivors.py tests/hil/test_can_config.py", 240),
-    "urdf": (["rtctl/model/urdf.py"], "tests/model/test_urdf.py", 180),
+    "urdf": (["rtctl/model/urdf.py"], "tests/model/test_urdf.py tests/model/test_urdf_survivors.py", 180),
     "control": (["rtctl/control"], "tests/control tests/leg/test_controller.py tests/leg/test_leg_actions.py", 600),  # (the leg automaton's)
     # issue 27 part 3: the newer modules (the guard's and the CiA 402 driver's are safety-relevant)
     "guard": (["rtctl/guard/kernels.py", "rtctl/guard/feasibility.py", "rtctl/guard/zones.py",
