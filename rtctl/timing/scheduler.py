@@ -132,7 +132,7 @@ class Ticker:
         else:
             now = self.clock.now_ns()
         self.prev_tick, self.tick = self.tick, k
-        self._wake_ns = now  # a stamp older than this is a phase not marked this tick: it counts 0
+        self._wake_ns = now  # a stamp not after this is a phase not marked this tick: it counts 0
         return k
 
     def mark(self, phase: int) -> None:

@@ -5,8 +5,9 @@ Each histogram has 32 linear sub-buckets per power of two (HdrHistogram's layout
 in a bucket of width ``2^(bit_length(x) − 6)``, i.e. at most 1/32 of ``x``. A percentile
 is reported as the middle of its bucket, so it is within **1/64 ≈ 1.6 %** of the exact
 order statistic (``numpy.percentile(..., method="inverted_cdf")``); the maximum is exact.
-Values are clamped to ``2^40`` ns (18 min). A one-hour run at 1 kHz costs the same
-memory as a one-second one: 7 rows × 1152 counters.
+Values of ``2^40 − 1`` ns (18 min) and more count in the last bucket (the maximum stays
+exact). A one-hour run at 1 kHz costs the same memory as a one-second one: 7 rows × 1152
+counters.
 
 The loop records a tick in one compiled call from its phase marks (:mod:`rtctl.timing.record`),
 with no allocation: ``rtctl bench loop-timing`` measures its cost.
@@ -86,8 +87,8 @@ class LoopStats:
 
     def record_marks(self, stamps, wake_ns: int, end_ns: int, lateness_ns: int | None, phase_ns) -> None:
         """Add one tick from its marks: ``stamps`` (int64 array, one per phase) are the clock at
-        each phase's end, ``phase_ns`` receives the phase times (0 for a phase whose stamp is
-        older than ``wake_ns``: not marked this tick). One compiled call
+        each phase's end, ``phase_ns`` receives the phase times (0 for a phase whose stamp is not
+        after ``wake_ns``: not marked this tick). One compiled call
         (:func:`rtctl.timing.record.record_tick`)."""
         self.ticks += 1
         self._record(self._counts, self._max, stamps, wake_ns, end_ns,
