@@ -59,7 +59,8 @@ class Ticker:
 
     ``period_ns``: the control period (simulated time per tick). ``realtime_factor``: 1.0
     runs on the wall clock, f > 0 makes simulated time run f × real time (tick k due at
-    ``start + k·period/f``), 0 never sleeps. ``clock``: anything with ``now_ns()`` and
+    ``start + k·period/f``, f taken as the nearest fraction with a denominator up to 10⁹: exact
+    integer deadlines), 0 never sleeps. ``clock``: anything with ``now_ns()`` and
     ``sleep_until_ns()`` (default :class:`MonotonicClock` with ``spin_margin_ns``).
     ``busy``: how busy the loop keeps its core (:class:`~rtctl.timing.busy.BusyMeter`; paced
     modes only — lock-step never sleeps).
