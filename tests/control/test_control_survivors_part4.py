@@ -7,6 +7,8 @@ every rtctl/control mutant found unchecked (docs/mutation/control.md):
   is refused (−0.5 too), as is a non-finite one;
 * ``initial_params``: "true" is the model's parameters themselves, "scaled" without a scale
   is too;
+* a configuration without ``dead_zone`` has none (default 0, documented), "scaled" without a
+  scale (in a configuration or the constructor) is the model's parameters;
 * ``compute`` changes no state: with the projection on and an inconsistent π̂, π̂ stays as it
   was (the projection runs only with an integration step).
 """
@@ -53,3 +55,15 @@ def test_compute_leaves_an_inconsistent_estimate_alone_even_with_the_projection_
     n = puma.nq
     c.compute(np.full(n, 0.2), np.full(n, 0.1), np.zeros(n), np.zeros(n), np.zeros(n))
     np.testing.assert_array_equal(c.params_hat, before)
+
+
+def test_a_configuration_without_a_dead_zone_or_a_scale_has_neither(tmp_path):
+    """`dead_zone` defaults to 0 (docs/cstar_slotine_li.md); "scaled" without `params_scale`
+    is the model's parameters."""
+    (c,) = build(load_config(configured(tmp_path, 'params0 = "scaled"\n'))).controllers
+    assert c.dead_zone == 0.0
+    np.testing.assert_array_equal(c.params0, c.model.params)
+
+
+def test_the_constructors_scaled_estimate_without_a_scale_is_the_models(puma):
+    np.testing.assert_array_equal(SlotineLi(puma, params0="scaled").params0, puma.params)
