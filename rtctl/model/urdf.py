@@ -17,8 +17,9 @@ Reading (:func:`load_urdf`, :func:`parse_urdf`):
 
 Writing (:func:`to_urdf`): the base → link ``base_link``, body ``i`` (from 0) → link
 ``link{i + 1}`` and joint ``i`` with the tree placement as origin and its axis and limits; a
-fixed ``flange`` link on the last body and a fixed ``tool`` link on the flange, so Pinocchio's placement of frame ``tool`` (type BODY) is
-our tool pose. urdfdom rejects ``inf``; the largest float stands for "no limit" both ways.
+fixed ``flange`` link on the last body and a fixed ``tool`` link on the flange, so
+Pinocchio's placement of frame ``tool`` (type BODY) is our tool pose. urdfdom rejects
+``inf``; the largest float stands for "no limit" both ways.
 """
 from __future__ import annotations
 
@@ -189,12 +190,9 @@ def _floats(element, attr, count, default):
 
 
 def _float(element, attr, default, *, lo=-np.inf, unlimited=False) -> float:
-    """A number attribute: finite and ≥ ``lo`` (±inf too where ``unlimited``: a limit);
-    ``default`` when absent, or required when ``default`` is None."""
+    """A number attribute: finite and ≥ ``lo`` (±inf too where ``unlimited``: a limit)."""
     text = element.get(attr)
     if text is None:
-        if default is None:
-            raise ModelError(f"<{element.tag}> needs {attr}=\"…\" (a number)")
         return default
     try:
         value = float(text)
@@ -219,7 +217,9 @@ def _link_params(link, source) -> np.ndarray:
     mass_el, inertia_el = inertial.find("mass"), inertial.find("inertia")
     if mass_el is None or inertia_el is None:
         raise ModelError(f"{source}: link {link.get('name')!r}: <inertial> needs <mass> and <inertia>")
-    m = _float(mass_el, "value", None, lo=0.0)
+    if mass_el.get("value") is None:  # (URDF requires it)
+        raise ModelError(f"{source}: link {link.get('name')!r}: <mass> needs a value")
+    m = _float(mass_el, "value", 0.0, lo=0.0)
     c = {k: _float(inertia_el, k, 0.0) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
     Ic = np.array([[c["ixx"], c["ixy"], c["ixz"]], [c["ixy"], c["iyy"], c["iyz"]], [c["ixz"], c["iyz"], c["izz"]]])
     T = _origin(inertial)

@@ -114,7 +114,7 @@ def test_an_origin_without_rpy_has_no_rotation(pin):
 @pytest.mark.parametrize("inertial, message", [
     ('<inertial><mass value="1"/></inertial>', "<inertial> needs <mass> and <inertia>"),
     ('<inertial><inertia ixx="1" iyy="1" izz="1"/></inertial>', "<inertial> needs <mass> and <inertia>"),
-    ('<inertial><mass/><inertia ixx="1" iyy="1" izz="1"/></inertial>', "<mass> needs value="),
+    ('<inertial><mass/><inertia ixx="1" iyy="1" izz="1"/></inertial>', "link 'l1': <mass> needs a value"),
 ])
 def test_an_inertial_needs_a_mass_with_a_value_and_an_inertia(inertial, message):
     with pytest.raises(ModelError, match=message):
