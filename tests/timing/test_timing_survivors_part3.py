@@ -24,23 +24,8 @@ import structlog
 from rtctl.timing.clock import FakeClock
 from rtctl.timing.scheduler import PHASES, Ticker
 from rtctl.timing.stats import MAX_VALUE_NS, N_BUCKETS, LoopStats, bucket_bounds, bucket_index, percentiles_of
+from test_ticker import P, make, run_tick
 
-P = 1_000_000
-
-
-def _make(start_ns=5_000, **kw):
-    clock = FakeClock(start_ns)
-    ticker = Ticker(P, clock=clock, **kw)
-    ticker.start()
-    return ticker, clock
-
-
-def _tick(ticker, clock, phase_ns=(100_000, 300_000, 50_000, 50_000, 0)):
-    k = ticker.wait()
-    for i, t in enumerate(phase_ns):
-        clock.advance(t)
-        ticker.mark(i)
-    return k, ticker.end_tick()
 
 
 @pytest.mark.parametrize("kw, refused", [({"period_ns": 0}, True), ({"period_ns": 1}, False),
@@ -64,7 +49,7 @@ def _overrun_at(ticker, clock, end_ns):
 
 @pytest.mark.parametrize("gap_ns, logged", [(999_999_999, 1), (1_000_000_000, 2)])
 def test_overrun_records_are_at_least_a_second_apart(gap_ns, logged):
-    ticker, clock = _make(start_ns=0, max_consecutive_overruns=10**9)
+    ticker, clock = make(start_ns=0, max_consecutive_overruns=10**9)
     with structlog.testing.capture_logs() as logs:
         _overrun_at(ticker, clock, 1_500_000)  # tick 0 ends past tick 1's deadline
         first = clock.t
@@ -77,7 +62,7 @@ def test_the_overrun_record_keeps_fractions_of_a_microsecond():
     ticker = Ticker(P, clock=clock, max_consecutive_overruns=10**9)
     ticker.start()
     with structlog.testing.capture_logs() as logs:
-        _tick(ticker, clock, (100_500, 900_000, 0, 0, 750))  # ends 1 001 250 + 1 250 ns after the start
+        run_tick(ticker, clock, (100_500, 900_000, 0, 0, 750))  # ends 1 001 250 + 1 250 ns after the start
     record = next(r for r in logs if r["event"] == "tick overrun")
     assert record["wake_lateness_us"] == 1.25
     assert record["late_us"] == 2.5  # 1 002 500 − 1 000 000 ns
@@ -86,14 +71,14 @@ def test_the_overrun_record_keeps_fractions_of_a_microsecond():
 
 def test_deadlines_are_exact_integers_on_any_clock():
     start = 2 ** 60 + 136  # where a float's steps are 256 ns: start + 1 ms in floats is 56 ns late
-    ticker, clock = _make(start_ns=start)
+    ticker, clock = make(start_ns=start)
     assert ticker.deadline_ns(3) == start + 3 * P and isinstance(ticker.deadline_ns(3), int)
     _overrun_at(ticker, clock, start + P + 1)  # 1 ns past tick 1's deadline
     assert ticker.summary()["overruns"] == 1
 
 
 def test_after_an_overrun_the_next_tick_is_the_first_grid_point_not_yet_past():
-    ticker, clock = _make(start_ns=7_000_000_000)
+    ticker, clock = make(start_ns=7_000_000_000)
     _overrun_at(ticker, clock, 7_000_000_000 + 3_500_000)  # tick 0 ends 3.5 periods in
     assert ticker.wait() == 4 and clock.sleeps[-1] == 7_000_000_000 + 4 * P
 
@@ -102,16 +87,16 @@ def test_after_an_overrun_the_next_tick_is_the_first_grid_point_not_yet_past():
 def test_the_realtime_factor_is_the_nearest_fraction_with_a_denominator_up_to_a_billion(factor):
     """tick k is due at start + k · period / f, f the nearest fraction n/d with d ≤ 10^9."""
     f = Fraction(factor).limit_denominator(10 ** 9)
-    ticker, clock = _make(start_ns=0, realtime_factor=factor)
+    ticker, clock = make(start_ns=0, realtime_factor=factor)
     k = 10 ** 13  # (far enough for a fraction nearer still to move the deadline)
     assert ticker.deadline_ns(k) == k * P * f.denominator // f.numerator
 
 
 def test_a_runs_summary_counts_its_last_period_and_the_core_once_a_tick_ran():
-    ticker, clock = _make(start_ns=0)
+    ticker, clock = make(start_ns=0)
     before = ticker.summary()
     assert before["core_busy"] is None and before["wall_time_s"] == 0.0
-    _tick(ticker, clock, (100_000, 0, 0, 0, 0))  # tick 0 ends 0.1 ms in
+    run_tick(ticker, clock, (100_000, 0, 0, 0, 0))  # tick 0 ends 0.1 ms in
     after = ticker.summary()
     assert after["wall_time_s"] == 0.001  # until its period is over
     assert after["core_busy"] is not None

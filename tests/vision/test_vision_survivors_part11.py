@@ -19,17 +19,15 @@ import numpy as np
 import pytest
 
 from drivers.protocols.framegrabber import HEADER_BYTES, GrabberMemory, buffer_bytes
-from rtctl.control.base import Reference
-from rtctl.errors import ConfigError, HardwareError, ProtocolError
+from rtctl.errors import HardwareError, ProtocolError
 from rtctl.hal.framegrabber import Frame, FrameGrabber, GrabberSettings
-from rtctl.hal.joints import JointCommand, JointState
 from rtctl.model import kinematics, load_robot
 from rtctl.vision import grab
 from rtctl.vision.camera import Camera
 from rtctl.vision.marker import locate
 from rtctl.vision.pixels import pack, unpack
 from runtime_helpers import PUMA
-from vision_rig import CAMERA, READY, observer_config
+from vision_rig import CAMERA, READY, observer_after, observer_config, predicted_at
 
 
 def test_a_buffer_of_only_the_header_is_refused_for_its_slots_not_its_magic():
@@ -108,32 +106,15 @@ def test_the_default_search_box_reaches_32_screen_pixels_down(offset, found):
     assert observer.measure(_marker_at(settings, 200 + offset, 100), guess, np.zeros(2)) is found
 
 
-class _NoImages:
-    def grab(self):
-        return None
-
-
 @pytest.mark.parametrize("ticks", [3, 6])
-def test_an_image_older_than_the_history_takes_its_oldest_row(tmp_path, ticks):
+def test_an_image_older_than_the_history_takes_its_oldest_row(ticks):
     """A history of 4 ticks: after 3 the oldest row is the first tick's; after 6 (the ring has
     wrapped) it is the third's."""
-    from rtctl.vision.observer import MarkerObserver
-
     model = load_robot(PUMA)
-    observer = MarkerObserver("marker", model, CAMERA, history=4)
-    observer.grabber = _NoImages()
-    state, ref, command = JointState(6), Reference(6), JointCommand(6)
-    state.position[:] = READY
-    observer.reset(state)
     q = [READY + np.radians(5.0) * k for k in range(ticks)]
-    for k in range(ticks):
-        state.position[:] = q[k]
-        observer.update(1.0 + 0.001 * k, state, ref, command)
-    settings = GrabberSettings(density=64, scan="frame", word_bits=8)
-    observer.observe(Frame(1, 0.5, "frame", settings, np.zeros((64, 64), dtype=np.uint8), unpack))
-    oldest = q[max(0, ticks - 4)]
-    tool = kinematics.fk(model, oldest)[:3, 3]
-    np.testing.assert_allclose(observer.internals["marker_predicted_px"], CAMERA.project(tool), atol=1e-9)
+    observer = observer_after(model, q, t0=1.0, history=4)
+    tool = kinematics.fk(model, q[max(0, ticks - 4)])[:3, 3]
+    np.testing.assert_allclose(predicted_at(observer, model, 0.5), CAMERA.project(tool), atol=1e-9)
 
 
 def test_pack_drops_a_levels_higher_bits():

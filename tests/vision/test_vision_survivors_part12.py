@@ -18,17 +18,15 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from rtctl.control.base import Reference
 from rtctl.errors import ConfigError, RtctlError
-from rtctl.hal.framegrabber import Frame, FrameGrabber, GrabberSettings
-from rtctl.hal.joints import JointCommand, JointState
+from rtctl.hal.framegrabber import Frame, GrabberSettings
 from rtctl.model import kinematics, load_robot
 from rtctl.vision import grab
 from rtctl.vision.camera import Camera
 from rtctl.vision.marker import locate
 from rtctl.vision.pixels import digitise, digitise_pack, pack, unpack
 from runtime_helpers import PUMA
-from vision_rig import CAMERA, READY, VISION_CONFIG
+from vision_rig import CAMERA, READY, VISION_CONFIG, NthPoll, observer_after, predicted_at
 
 SETTINGS = GrabberSettings(density=64, scan="frame", word_bits=8)
 
@@ -40,23 +38,9 @@ def test_a_png_without_pillow_names_the_extra(monkeypatch, tmp_path):
         grab.save_png(frame, tmp_path / "frame.png")
 
 
-class _NthPoll(FrameGrabber):
-    def __init__(self, n):
-        super().__init__("cam", SETTINGS)
-        self.n, self.times = n, []
-
-    def _send(self, settings, t):
-        pass
-
-    def _poll(self, t):
-        self.times.append(t)
-        self._latest = SimpleNamespace(copy=lambda: "the image")
-        return len(self.times) == self.n
-
-
 def test_grab_in_lock_step_polls_at_the_time_out_itself():
     cfg = SimpleNamespace(file="cell.toml", sim=object(), loop=SimpleNamespace(period=0.25))
-    device = _NthPoll(5)
+    device = NthPoll(5)
     assert grab.grab_frame(SimpleNamespace(io={"cam": device}, cfg=cfg), None, 1.0) == ("cam", "the image")
     assert device.times == [0.0, 0.25, 0.5, 0.75, 1.0]
 
@@ -66,7 +50,7 @@ def test_grab_on_the_wall_clock_counts_from_its_start(monkeypatch):
     monkeypatch.setattr(grab.time, "monotonic", lambda: next(clock))
     monkeypatch.setattr(grab.time, "sleep", lambda s: None)
     cfg = SimpleNamespace(file="cell.toml", sim=None, loop=SimpleNamespace(period=0.25))
-    device = _NthPoll(3)
+    device = NthPoll(3)
     assert grab.grab_frame(SimpleNamespace(io={"cam": device}, cfg=cfg), None, 1.0) == ("cam", "the image")
     assert device.times == [0.0, 0.25, 0.5]
 
@@ -144,28 +128,13 @@ def test_a_guess_that_is_not_finite_measures_nothing():
     assert np.isnan(out).all()
 
 
-class _NoImages:
-    def grab(self):
-        return None
-
-
 def test_the_observer_remembers_256_ticks_by_default():
     """After 300 ticks an image older than all of them takes tick 300 − 256 = 44's positions."""
-    from rtctl.vision.observer import MarkerObserver
-
     model = load_robot(PUMA)
-    observer = MarkerObserver("marker", model, CAMERA)
-    observer.grabber = _NoImages()
-    state, ref, command = JointState(6), Reference(6), JointCommand(6)
-    state.position[:] = READY
-    observer.reset(state)
     q = [READY + np.radians(0.1) * k for k in range(300)]
-    for k in range(300):
-        state.position[:] = q[k]
-        observer.update(1.0 + 0.001 * k, state, ref, command)
-    observer.observe(Frame(1, 0.5, "frame", SETTINGS, np.zeros((64, 64), dtype=np.uint8), unpack))
+    observer = observer_after(model, q, t0=1.0)
     tool = kinematics.fk(model, q[44])[:3, 3]
-    np.testing.assert_allclose(observer.internals["marker_predicted_px"], CAMERA.project(tool), atol=1e-9)
+    np.testing.assert_allclose(predicted_at(observer, model, 0.5), CAMERA.project(tool), atol=1e-9)
 
 
 @pytest.mark.parametrize("gain", [0.0, -0.5])

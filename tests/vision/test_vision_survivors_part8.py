@@ -20,17 +20,16 @@ import numpy as np
 import pytest
 
 from drivers.protocols.framegrabber import decode, encode
-from rtctl.control.base import Reference
 from rtctl.errors import SettingsError
 from rtctl.hal.framegrabber import Frame, GrabberSettings
-from rtctl.hal.joints import JointCommand, JointState
+from rtctl.hal.joints import JointState
 from rtctl.model import kinematics, load_robot
 from rtctl.tomltable import Table
 from rtctl.vision.camera import Camera
 from rtctl.vision.marker import locate
 from rtctl.vision.pixels import unpack
 from runtime_helpers import PUMA
-from vision_rig import CAMERA, READY
+from vision_rig import CAMERA, READY, NoImages, observer_after, predicted_at
 
 SCAN_WORD = 6  # the registers: density, density_v, x, y, width, height, scan, …
 
@@ -56,16 +55,11 @@ def test_the_centroid_weights_each_pixel_by_how_far_above_the_threshold_it_is():
     np.testing.assert_allclose(out, [2.0, (2 * w[0] + 3 * w[1]) / w.sum(), w.sum(), 2], rtol=1e-12)
 
 
-class _NoImages:
-    def grab(self):
-        return None
-
-
 def test_the_observers_warm_up_leaves_its_telemetry_empty():
     from rtctl.vision.observer import MarkerObserver
 
     observer = MarkerObserver("marker", load_robot(PUMA), CAMERA)
-    observer.grabber = _NoImages()
+    observer.grabber = NoImages()
     state = JointState(6)
     state.position[:] = READY
     observer.reset(state)  # the first reset warms up on an image of its own
@@ -97,12 +91,12 @@ def test_the_observer_finds_a_marker_in_a_window_off_the_grids_corner():
     np.testing.assert_allclose(Camera.to_grid(out, settings.density), [26.0, 13.0], atol=1e-9)
 
 
-@pytest.mark.parametrize("devices", [{}, {"camera": _NoImages()}])
+@pytest.mark.parametrize("devices", [{}, {"camera": NoImages()}])
 def test_an_observer_without_its_framegrabber_names_what_it_was_given(devices):
     from rtctl.vision.observer import MarkerObserver
 
     observer = MarkerObserver("marker", load_robot(PUMA), CAMERA)
-    expected = "got none" if not devices else "got camera (_NoImages)"
+    expected = "got none" if not devices else "got camera (NoImages)"
     with pytest.raises(ValueError, match=rf"exactly one framegrabber device; {re.escape(expected)}"):
         observer.bind(devices)
 
@@ -111,21 +105,9 @@ def test_an_observer_without_its_framegrabber_names_what_it_was_given(devices):
 def test_an_image_takes_the_positions_interpolated_at_its_capture_time(capture, between, w):
     """Ticks at 0, 1 and 2 ms after a reset: an image captured a quarter of the way into the
     first interval, halfway into the second, or after the newest tick (which it takes)."""
-    from rtctl.vision.observer import MarkerObserver
-
     model = load_robot(PUMA)
-    observer = MarkerObserver("marker", model, CAMERA)
-    observer.grabber = _NoImages()
-    state, ref, command = JointState(6), Reference(6), JointCommand(6)
-    state.position[:] = READY
-    observer.reset(state)
     q = [READY + np.radians(10.0) * k for k in range(4)]
-    for k in range(3):
-        state.position[:] = q[k]
-        observer.update(0.001 * k, state, ref, command)
-    settings = GrabberSettings(density=64, scan="frame", word_bits=8)
-    words = np.zeros((settings.rows, settings.words_per_row), dtype=np.uint8)
-    observer.observe(Frame(1, capture, "frame", settings, words, unpack))
+    observer = observer_after(model, q[:3])
     q_at = q[between] + w * (q[between + 1] - q[between])
     tool = kinematics.fk(model, q_at)[:3, 3]
-    np.testing.assert_allclose(observer.internals["marker_predicted_px"], CAMERA.project(tool), atol=1e-9)
+    np.testing.assert_allclose(predicted_at(observer, model, capture), CAMERA.project(tool), atol=1e-9)

@@ -14,13 +14,13 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from rtctl.hal.framegrabber import Frame, FrameGrabber, GrabberSettings
+from rtctl.hal.framegrabber import Frame, GrabberSettings
 from rtctl.model import load_robot
 from rtctl.vision import grab
 from rtctl.vision.camera import Camera
 from rtctl.vision.pixels import digitise_pack, unpack
 from runtime_helpers import PUMA
-from vision_rig import CAMERA
+from vision_rig import CAMERA, NthPoll
 
 
 @pytest.mark.parametrize("up", [(0.0, 0.0, 1.0), (0.0, 0.0, -3.0), (1e-12, 0.0, 1.0)])
@@ -52,29 +52,13 @@ def test_a_grabbed_png_spans_black_to_white(tmp_path, levels, word_bits):
     np.testing.assert_array_equal(png, codes * (255 // (levels - 1)))  # 255 = 1·255 = 3·85 = 15·17
 
 
-class _FifthPoll(FrameGrabber):
-    """A device whose first image arrives at the fifth poll."""
-
-    def __init__(self):
-        super().__init__("cam", GrabberSettings(density=64, scan="frame", word_bits=8))
-        self.times = []
-
-    def _send(self, settings, t):
-        pass
-
-    def _poll(self, t):
-        self.times.append(t)
-        self._latest = SimpleNamespace(copy=lambda: "the image")
-        return len(self.times) == 5
-
-
 def test_grab_in_lock_step_steps_simulated_time_and_never_sleeps(monkeypatch):
     def no_sleep(seconds):
         raise AssertionError(f"slept {seconds} s in lock-step")
 
     monkeypatch.setattr(grab.time, "sleep", no_sleep)
     cfg = SimpleNamespace(file="cell.toml", sim=object(), loop=SimpleNamespace(period=0.002))
-    device = _FifthPoll()
+    device = NthPoll(5)
     assert grab.grab_frame(SimpleNamespace(io={"cam": device}, cfg=cfg), None, 1.0) == ("cam", "the image")
     assert device.times == pytest.approx([0.0, 0.002, 0.004, 0.006, 0.008], abs=1e-12)
 

@@ -10,8 +10,10 @@ from drivers.protocols.framegrabber_host import HostPort
 from hil_sim.camera import CameraSim
 from hil_sim.render import Scene
 from rtctl.config import load_config
+from rtctl.hal.framegrabber import Frame, FrameGrabber, GrabberSettings
 from rtctl.model import load_robot
 from rtctl.vision.camera import Camera
+from rtctl.vision.pixels import unpack
 from runtime_helpers import PUMA
 
 READY = np.radians([0, 45, -180, 0, 45, 0])
@@ -68,3 +70,55 @@ class Rig:
                 out.append((self.t, frame.copy()))
             self.tick += 1
         return out
+
+
+class NoImages:
+    """A framegrabber that never has an image (the observer's own ticks only)."""
+
+    def grab(self):
+        return None
+
+
+def observer_after(model, qs, t0=0.0, dt=0.001, **options):
+    """A marker observer, reset at READY, that saw joint positions ``qs`` at ticks ``t0``,
+    ``t0 + dt`` … and no image."""
+    from rtctl.control.base import Reference
+    from rtctl.hal.joints import JointCommand, JointState
+    from rtctl.vision.observer import MarkerObserver
+
+    observer = MarkerObserver("marker", model, CAMERA, **options)
+    observer.grabber = NoImages()
+    state, ref, command = JointState(model.nq), Reference(model.nq), JointCommand(model.nq)
+    state.position[:] = READY
+    observer.reset(state)
+    for k, q in enumerate(qs):
+        state.position[:] = q
+        observer.update(t0 + dt * k, state, ref, command)
+    return observer
+
+
+def predicted_at(observer, model, capture_time):
+    """The observer's predicted pixel for a blank image captured at ``capture_time``."""
+    settings = GrabberSettings(density=64, scan="frame", word_bits=8)
+    observer.observe(Frame(1, capture_time, "frame", settings,
+                           np.zeros((settings.rows, settings.words_per_row), dtype=np.uint8), unpack))
+    return observer.internals["marker_predicted_px"]
+
+
+class NthPoll(FrameGrabber):
+    """A framegrabber whose first image (a stand-in: ``copy()`` gives "the image") arrives at
+    poll ``n``; ``times`` records each poll's time."""
+
+    def __init__(self, n):
+        super().__init__("cam", GrabberSettings(density=64, scan="frame", word_bits=8))
+        self.n, self.times = n, []
+
+    def _send(self, settings, t):
+        pass
+
+    def _poll(self, t):
+        from types import SimpleNamespace
+
+        self.times.append(t)
+        self._latest = SimpleNamespace(copy=lambda: "the image")
+        return len(self.times) == self.n
