@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "leg"))
-from leg_helpers import CONFIGS  # noqa: E402
+from leg_helpers import CONFIGS, leg_config  # noqa: E402
 from rtctl.config import load_config  # noqa: E402
 from rtctl.control.leg_automaton import LegAutomaton  # noqa: E402
 from rtctl.errors import ConfigError  # noqa: E402
@@ -30,15 +30,7 @@ DEG = math.pi / 180.0
 
 def _leg(tmp_path, **replace):
     """(board, controller) of configs/leg_sim.toml with text replacements (no option added)."""
-    text = (CONFIGS / "leg_sim.toml").read_text().replace('description = "robots/', f'description = "{CONFIGS}/robots/')
-    text = text.replace('table = "leg/table3.toml"', f'table = "{CONFIGS}/leg/table3.toml"')
-    text = text.replace('path = "../runs/leg_sim.msgpack"', "")
-    for old, new in replace.items():
-        assert old in text, old
-        text = text.replace(old, new)
-    path = tmp_path / "leg.toml"
-    path.write_text(text)
-    rt = build(load_config(path))
+    rt = build(load_config(leg_config(tmp_path, **replace)))
     c = rt.controllers[0]
     c.reset(None)
     return rt.devices[0], c

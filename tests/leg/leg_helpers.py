@@ -86,3 +86,17 @@ def table_refusal(tmp_path, text):
     with pytest.raises(ConfigError) as e:
         load_table(path)
     return e.value
+
+
+def leg_config(tmp_path, **replace):
+    """configs/leg_sim.toml in ``tmp_path`` with text replacements (old → new, each present),
+    its paths made absolute and its telemetry off → the new file's path."""
+    text = (CONFIGS / "leg_sim.toml").read_text().replace('description = "robots/', f'description = "{CONFIGS}/robots/')
+    text = text.replace('table = "leg/table3.toml"', f'table = "{CONFIGS}/leg/table3.toml"')
+    text = text.replace('path = "../runs/leg_sim.msgpack"', "")
+    for old, new in replace.items():
+        assert old in text, old
+        text = text.replace(old, new)
+    path = tmp_path / "leg.toml"
+    path.write_text(text)
+    return path

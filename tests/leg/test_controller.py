@@ -7,24 +7,12 @@ import numpy as np
 import pytest
 
 from allocations import growth_and_peak
-from leg_helpers import CONFIGS, leg_runtime
+from leg_helpers import leg_config, leg_runtime
 from rtctl.config import load_config
 from rtctl.daemon import Daemon
 from rtctl.errors import ConfigError
 from rtctl.runtime import build
 from rtctl.telemetry import read
-
-
-def _config(tmp_path, **replace):
-    text = (CONFIGS / "leg_sim.toml").read_text().replace('description = "robots/', f'description = "{CONFIGS}/robots/')
-    text = text.replace('table = "leg/table3.toml"', f'table = "{CONFIGS}/leg/table3.toml"')
-    text = text.replace('path = "../runs/leg_sim.msgpack"', "")
-    for old, new in replace.items():
-        assert old in text, old
-        text = text.replace(old, new)
-    path = tmp_path / "leg.toml"
-    path.write_text(text)
-    return path
 
 
 @pytest.mark.parametrize("old, new, key, words", [
@@ -35,7 +23,7 @@ def _config(tmp_path, **replace):
 ])
 def test_bad_controller_options_exit_2_naming_the_key(tmp_path, old, new, key, words):
     with pytest.raises(ConfigError) as e:
-        build(load_config(_config(tmp_path, **{old: new})))
+        build(load_config(leg_config(tmp_path, **{old: new})))
     assert e.value.key_path == key and words in e.value.expected, e.value
 
 
@@ -46,7 +34,7 @@ def test_a_settle_limit_below_what_the_circuit_needs_is_refused_naming_the_need(
     longest path (a chain of exits on one vector) is 6 flip-flop changes, so it needs 7 passes
     (the exact-vector circuit needed 3)."""
     with pytest.raises(ConfigError) as e:
-        build(load_config(_config(tmp_path, **{'table = "': f'max_passes = {passes}\ntable = "'})))
+        build(load_config(leg_config(tmp_path, **{'table = "': f'max_passes = {passes}\ntable = "'})))
     assert e.value.key_path == "controllers[0].max_passes" and "at least 7" in e.value.expected, e.value
 
 
@@ -58,7 +46,7 @@ def test_the_settle_limit_needed_is_the_longest_route_plus_one_confirming_pass(t
 
     from rtctl.logic.emulate import NOT_SETTLED, Emulator
 
-    ctl = build(load_config(_config(tmp_path))).controllers[0]
+    ctl = build(load_config(leg_config(tmp_path))).controllers[0]
     needed = ctl.circuit.settle_passes
     assert ctl.cm.max_passes == needed + 1  # the default keeps one spare
     flow, a = ctl.circuit.flow, ctl.circuit.assignment
@@ -102,7 +90,7 @@ def test_update_allocates_nothing():
 def test_a_circuit_that_does_not_settle_locks_both_joints_in_the_same_tick(tmp_path):
     """A settle limit of 1 leaves no pass to confirm a state change: the first transition is a
     fault. (The configuration refuses such a limit; set here as a circuit that cannot settle.)"""
-    path = _config(tmp_path)
+    path = leg_config(tmp_path)
     cfg = load_config(path)
     args = SimpleNamespace(telemetry=str(tmp_path / "t.msgpack"), socket=str(tmp_path / "s.sock"), enforce_rt=False,
                            duration=3.0, summary=None, log_level="error", realtime_factor=0.0)
