@@ -281,3 +281,29 @@ def test_a_drive_that_first_says_motor_on_then_off_has_answered_with_the_first_f
     assert r.last_error is None or "exit motor mode" not in r.last_error
     assert pump(r.drives, r.peer, now=r.now) == 2  # one exit frame per drive on the wire
     r.hold = False
+
+
+def test_over_slcan_a_late_reply_is_still_taken_before_the_next_commands(rig):
+    """Over slcan (acknowledgements: the write drains only when an answer is missing, since an
+    empty read waits out the serial timeout) a late reply must still be taken before the next
+    commands go out, or it answers them and every state after is a period old."""
+    r = rig(cls=SlowRig)
+    r._acks_per_send = 2  # (as over slcan: the virtual bus has no acknowledgements to read)
+    r.activate()
+    r.tick()
+    r.hold = True
+    r.tick()  # these commands' answers are held back …
+    r.hold = False
+    r.now += 0.001
+    assert r.read(r.now) == Status.OK and not r.state.fresh.any()  # … past this read's deadline
+    r.q[:] = 0.1
+    pump(r.drives, r.peer, now=r.now)  # … and arrive before this tick's write: late
+    r.q[:] = 0.3
+    r.write(r.now)
+    seen = []
+    for where in (0.5, 0.7):
+        r.q[:] = where
+        assert r.tick() == (Status.OK, Status.OK)
+        seen.append((r.state.position.round(3).tolist(), r.state.fresh.tolist()))
+    assert seen == [([x, x], [True, True]) for x in (0.3, 0.5)]
+    assert r.counters["late_replies"] == 2
