@@ -40,6 +40,10 @@ def computed_torque_kernel(joint, geom, params, gravity, X, body, q, qd, ref, ga
 
 
 class ComputedTorque(Controller):
+    """τ = RNEA(q, q̇, q̈_d − K_d (q̇ − q̇_d) − K_p (q − q_d)), plus the drive train. Options:
+    ``kp``, ``kd`` (one number or one per joint, ≥ 0); ``motor_model`` (default true: the robot
+    file's armature and friction as feed-forward)."""
+
     def __init__(self, name, model, kp, kd, joints=None, divisor=1, motor_model=True, coulomb_velocity=0.01):
         super().__init__(name, model, joints, divisor)
         n = model.nq

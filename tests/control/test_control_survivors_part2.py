@@ -9,7 +9,9 @@ independent of the code under test:
   −1.1 · 10⁻⁹ |tr| is corrected — on a pseudo-inertia whose diagonal and off-diagonal entries
   all count, so the tolerance's scale is the trace and nothing else;
 * a call makes at most 16 corrections (the documented bound), a zero gain freezes a link
-  (nothing moves, nothing divides by zero), and the count over links starts at 0.
+  (nothing moves, nothing divides by zero), and the count over links starts at 0;
+* a gain below 0 is refused (−0.5 too); computed torque from a configuration models the drive
+  train unless ``motor_model = false`` (its class docstring).
 """
 from __future__ import annotations
 
@@ -17,7 +19,7 @@ import numpy as np
 import pytest
 
 from rtctl.control.base import Reference
-from rtctl.control.computed_torque import ComputedTorque
+from rtctl.control.computed_torque import ARMATURE, ComputedTorque
 from rtctl.control.consistency import project_consistent, project_link
 from rtctl.hal.joints import JointCommand, JointState
 
@@ -115,3 +117,26 @@ def test_a_zero_gain_freezes_an_inconsistent_link():
 def test_the_count_over_consistent_links_is_zero():
     params = np.array([_link_with(0.01, seed) for seed in range(3)])
     assert project_consistent(params, np.ones((3, 10)), *_scratch()[:3], np.zeros((3, 4))) == 0
+
+
+def test_a_negative_gain_is_refused():
+    from rtctl.control.gains import per_joint
+    from rtctl.errors import ConfigError
+    from rtctl.tomltable import Table
+
+    for value in (-0.5, [1.0, -0.5, 1.0]):
+        with pytest.raises(ConfigError, match="kp"):
+            per_joint(Table({"kp": value}, "run.toml", "controllers[0]"), "kp", 3)
+
+
+def test_computed_torque_from_a_configuration_models_the_drive_train_unless_told_not_to(puma):
+    from types import SimpleNamespace
+
+    from rtctl.tomltable import Table
+
+    def configured(**options):
+        t = Table({"kp": 50.0, "kd": 5.0, **options}, "run.toml", "controllers[0]")
+        return ComputedTorque.from_config(SimpleNamespace(options=t, name="ct", joints=None, divisor=1), puma)
+
+    np.testing.assert_array_equal(configured().gains[ARMATURE], puma.motors.armature)
+    assert not configured(motor_model=False).gains[ARMATURE].any()
