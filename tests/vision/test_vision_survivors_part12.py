@@ -149,3 +149,16 @@ def test_the_digitiser_refuses_a_gain_that_is_not_positive(gain):
 def test_pack_names_a_list_as_no_array():
     with pytest.raises(ValueError, match="pixels must be a 2-D uint8 array"):
         pack([[1, 2, 3, 0]], 2, 8)
+
+
+def test_the_pixel_warm_up_loads_every_pixel_kernel():
+    """In a fresh process, after ``pixels.warm_up()`` every compiled pixel kernel has its code:
+    none is compiled later, in the loop (a skipped packing loop left two to the first image)."""
+    import subprocess
+    import sys
+
+    probe = ("from rtctl.vision import pixels\npixels.warm_up()\n"
+             "names = [n for n in dir(pixels) if hasattr(getattr(pixels, n), 'signatures')]\n"
+             "print(sorted(n for n in names if not getattr(pixels, n).signatures))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

@@ -36,8 +36,11 @@ def test_a_sequence_number_may_jump_by_two_to_the_twentieth_and_no_more():
     assert seq == MAX_JUMP
     assert host.take(0.0, 0).seq == MAX_JUMP  # 2^20 after the 0 the host attached at
     host.release()
-    bad = _publish(dev, gen, regs, MAX_JUMP + MAX_JUMP)
-    with pytest.raises(ProtocolError, match=f"jumped from {MAX_JUMP} to {bad}"):
+    assert host.take(0.0, 0) is None and _publish(dev, gen, regs, MAX_JUMP + 4) == MAX_JUMP + 5
+    assert host.take(0.0, 0).seq == MAX_JUMP + 5  # 5 after the last taken: the jump, not the number
+    host.release()
+    bad = _publish(dev, gen, regs, 2 * MAX_JUMP + 5)
+    with pytest.raises(ProtocolError, match=f"jumped from {MAX_JUMP + 5} to {bad}"):
         host.take(0.0, 0)
 
 
