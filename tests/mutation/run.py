@@ -50,9 +50,11 @@ import tempfile
 import time
 from pathlib import Path
 
-from mutant_tests import TIMED_OUT, TOOL_ERROR  # what the test command prints (this script's folder)
+import ledger
+from mutant_tests import TOOL_ERROR  # what the test command prints (this script's folder)
 from renewal import CR, record_code, renew_moved_mutants
 from targets import TARGETS
+from unevaluated import unevaluated_jobs
 
 ROOT = Path(__file__).resolve().parents[2]
 PYTEST = f"{sys.executable} -m pytest -x -q -p no:cacheprovider -p no:randomly -o addopts="
@@ -83,6 +85,14 @@ def plausible(operator: str) -> bool:
     return pair in (_BOUNDARY if m.group(1) == "Comparison" else _ARITHMETIC)
 
 
+def runnable(items) -> list:
+    """The work items worth running: every mutation plausible, and not inside an annotation
+    Python never evaluates (tests/mutation/unevaluated.py: equivalent by construction)."""
+    items = [i for i in items if all(plausible(m.operator_name) for m in i.mutations)]
+    idle = unevaluated_jobs(items)
+    return [i for i in items if i.job_id not in idle]
+
+
 def in_sample(key: str, sample: int | None, total: int) -> bool:
     if sample is None or sample >= total:
         return True
@@ -100,13 +110,15 @@ def sample_key(item, tree: Path) -> str:
     return "|".join(f"{Path(m.module_path).relative_to(tree)}:{m.operator_name}:{m.occurrence}" for m in item.mutations)
 
 
-def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD", count_only: bool = False) -> dict:
+def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD", count_only: bool = False,
+               from_ledger: bool = False) -> dict:
     from cosmic_ray.work_db import WorkDB, use_db
     from cosmic_ray.work_item import WorkerOutcome, WorkResult
 
     tree = workdir / name
     tree.mkdir(parents=True, exist_ok=True)
     export_tree(tree, rev)
+    _record_rev(tree, rev)
     config, db = tree / "cosmic-ray.toml", tree / "session.sqlite"
     tests = _write_config(name, tree, config)
     env = _env(tree)
@@ -114,13 +126,15 @@ def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD", 
     record_code(db)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         items = list(work_db.pending_work_items)
-        keep = [i for i in items if all(plausible(m.operator_name) for m in i.mutations)]
+        keep = runnable(items)
         chosen = {i.job_id for i in keep if in_sample(sample_key(i, tree), sample, len(keep))}
         skipped = [i.job_id for i in items if i.job_id not in chosen]
         work_db.set_multiple_results(skipped, WorkResult(output="not in the plausible set or the sample",
                                                          worker_outcome=WorkerOutcome.SKIPPED))
     print(f"{name}: {len(items)} mutants, {len(keep)} plausible, {'would run' if count_only else 'running'} "
           f"{len(chosen)}", flush=True)
+    if from_ledger:
+        print(f"{name}: from the ledger, {ledger.take(name, tree, db)}", flush=True)
     if count_only:
         started = time.monotonic()
         baseline = subprocess.run(PYTEST.split() + tests.split(), cwd=tree, env=env, capture_output=True, text=True)
@@ -223,14 +237,15 @@ def _write_config(name: str, tree: Path, config: Path) -> str:
     return tests
 
 
-def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = True, sample: int | None = None) -> dict:
+def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = True, sample: int | None = None,
+                  from_ledger: bool = False) -> dict:
     """Continue the run of ``name`` in ``workdir`` (one that was stopped, or a sample to widen
     to every mutant, or to a larger ``sample``): the tree is exported again at ``rev`` — the
     tests as they are now, and no mutant left planted by a stopped run — and every plausible
     mutant not yet killed is run: those never run and the survivors, again. ``widen=False``
     keeps a sample as it is: only the survivors (and what a stopped run left unfinished) run again."""
     from cosmic_ray.work_db import WorkDB, use_db
-    from cosmic_ray.work_item import TestOutcome, WorkerOutcome
+    from cosmic_ray.work_item import TestOutcome, WorkerOutcome, WorkResult
 
     tree = workdir / name
     config, db = tree / "cosmic-ray.toml", tree / "session.sqlite"
@@ -243,19 +258,26 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
         raise SystemExit(f"{name}: the run's mutants are in files outside {tree}, e.g. {min(elsewhere)}")
     export_tree(tree, rev)
     tests = _write_config(name, tree, config)
+    _record_rev(tree, rev)
     for module, n in renew_moved_mutants(config, db, tree, _env(tree), plausible).items():
         print(f"{name}: {module} changed since its mutants were made: its {n} mutants are made again", flush=True)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         items = list(work_db.work_items)
-        total = sum(all(plausible(m.operator_name) for m in item.mutations) for item in items)
+        keep = {i.job_id for i in runnable(items)}
+        idle = [i.job_id for i in items if i.job_id not in keep]  # (a run made before annotations were left out)
         again = [item.job_id for item, result in work_db.completed_work_items
-                 if all(plausible(m.operator_name) for m in item.mutations)
+                 if item.job_id in keep
                  and ((widen and result.worker_outcome == WorkerOutcome.SKIPPED
-                       and in_sample(sample_key(item, tree), sample, total))
+                       and in_sample(sample_key(item, tree), sample, len(keep)))
                       or result.test_outcome == TestOutcome.SURVIVED)]
     with sqlite3.connect(db) as con:
-        con.executemany("DELETE FROM work_results WHERE job_id = ?", [(j,) for j in again])
+        con.executemany("DELETE FROM work_results WHERE job_id = ?", [(j,) for j in again + idle])
         con.execute("DELETE FROM work_results WHERE output LIKE ?", (f"%{TOOL_ERROR}%",))  # (a stopped one: no verdict)
+    with use_db(str(db), WorkDB.Mode.open) as work_db:
+        work_db.set_multiple_results(idle, WorkResult(output="not in the plausible set",
+                                                      worker_outcome=WorkerOutcome.SKIPPED))
+    if from_ledger:
+        print(f"{name}: from the ledger, {ledger.take(name, tree, db)}", flush=True)
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         pending = sum(1 for _ in work_db.pending_work_items)  # a stopped run's unfinished ones too
     print(f"{name}: resuming in {tree}, {pending} mutants to run", flush=True)
@@ -312,21 +334,18 @@ def _stop_on_tool_errors(db: Path) -> None:
 
 def report(name: str, tree: Path, db: Path) -> dict:
     from cosmic_ray.work_db import WorkDB, use_db
-    from cosmic_ray.work_item import TestOutcome, WorkerOutcome
 
     survivors, killed, timeouts = [], 0, 0
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         for item, result in work_db.completed_work_items:
-            if result.worker_outcome == WorkerOutcome.SKIPPED:
-                continue
-            if result.test_outcome == TestOutcome.SURVIVED:
+            found = ledger.verdict(result)
+            if found == "survived":
                 m = item.mutations[0]
                 survivors.append({"file": str(Path(m.module_path).relative_to(tree)), "line": m.start_pos[0],
                                   "operator": m.operator_name.rsplit("/", 1)[-1], "diff": result.diff})
-            elif (result.worker_outcome == WorkerOutcome.ABNORMAL or result.output == "timeout"  # cosmic-ray's word
-                  or TIMED_OUT in (result.output or "")):  # the test command's own limit
+            elif found == "timed_out":
                 timeouts += 1
-            else:
+            elif found == "killed":
                 killed += 1
     total = len(survivors) + killed + timeouts
     summary = {"target": name, "mutants": total, "killed": killed, "timeouts_or_crashes": timeouts,
@@ -336,6 +355,22 @@ def report(name: str, tree: Path, db: Path) -> dict:
     print(f"{name}: {len(survivors)} of {total} survived ({100 * (summary['survival_rate'] or 0):.1f} %); "
           f"report: {tree / 'report.json'}", flush=True)
     return summary
+
+
+def _record_rev(tree: Path, rev: str) -> None:
+    """Which commit the copy's tests are (the ledger says what its verdicts were measured with)."""
+    commit = subprocess.run(["git", "rev-parse", "--short", rev], cwd=ROOT, capture_output=True, text=True, check=True)
+    (tree / "rev").write_text(commit.stdout.strip())
+
+
+def save_ledger(name: str, workdir: Path) -> None:
+    """Merge the verdicts the run in ``workdir`` has reached so far into the target's ledger."""
+    tree = workdir / name
+    if not (tree / "session.sqlite").exists():
+        raise SystemExit(f"{name}: no run in {tree}")
+    rev = (tree / "rev").read_text() if (tree / "rev").is_file() else ledger.head(ROOT)
+    path, counts = ledger.save_run(name, tree, rev)
+    print(f"{name}: {counts} from {tree} merged into {path.relative_to(ROOT)}", flush=True)
 
 
 def main(argv=None) -> int:
@@ -351,16 +386,26 @@ def main(argv=None) -> int:
                    help="run the survivors of the run in --workdir again at --rev (after new tests), keeping its sample")
     p.add_argument("--count", action="store_true",
                    help="only count the mutants and time one run of the tests from a cold kernel cache")
+    p.add_argument("--ledger", action="store_true",
+                   help="take the kills and time-outs of tests/mutation/ledger/<target>.json on unchanged code")
+    p.add_argument("--save-ledger", action="store_true",
+                   help="merge the verdicts of the run in --workdir so far into the ledger, and stop")
     args = p.parse_args(argv)
-    if (args.resume or args.survivors) and args.workdir is None:
-        p.error("--resume and --survivors continue the run in --workdir")
+    if (args.resume or args.survivors or args.save_ledger) and args.workdir is None:
+        p.error("--resume, --survivors and --save-ledger need the run's --workdir")
     if args.survivors and args.sample is not None:
         p.error("--survivors keeps the run's own sample (--resume --sample N widens it to N)")
     workdir = (args.workdir or Path(tempfile.mkdtemp(prefix="rtctl-mutation-"))).resolve()
     names = GROUPS.get(args.target, [args.target])
-    results = [resume_target(n, workdir, args.rev, widen=not args.survivors, sample=args.sample)
+    if args.save_ledger:
+        for n in names:
+            save_ledger(n, workdir)
+        return 0
+    results = [resume_target(n, workdir, args.rev, widen=not args.survivors, sample=args.sample,
+                             from_ledger=args.ledger)
                if args.resume or args.survivors
-               else run_target(n, workdir, args.sample, args.rev, count_only=args.count) for n in names]
+               else run_target(n, workdir, args.sample, args.rev, count_only=args.count, from_ledger=args.ledger)
+               for n in names]
     print(f"\n{'target':<18} {'mutants':>8} {'killed':>7} {'t/o':>5} {'survived':>9} {'rate':>7}")
     for r in results:
         rate = "" if r["survival_rate"] is None else f"{100 * r['survival_rate']:.1f} %"
