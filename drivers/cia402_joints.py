@@ -66,7 +66,7 @@ from rtctl.errors import HardwareError
 from rtctl.hal import CommandMode, Lifecycle, Status
 
 SW, POS, VEL, TRQ = range(4)  # columns of the TPDO values (STATE_FIELDS order)
-STATE_MACHINE_CYCLES = 16  # SYNC cycles allowed to reach a state (FAULT → OPERATION ENABLED takes 5)
+STATE_MACHINE_CYCLES = 16  # SYNC cycles allowed to reach a state (FAULT → OPERATION ENABLED takes 5): docs/cia402.md
 DISABLED = (c.SWITCH_ON_DISABLED, c.FAULT, c.NOT_READY)  # power stage off
 
 
@@ -326,7 +326,7 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
         budget = self.exchange_timeout if budget is None else budget
         self._cycle_t = None  # a tick's SYNC still uncollected is superseded by these
         end = time.monotonic() + budget
-        for _ in range(STATE_MACHINE_CYCLES):
+        for cycle in range(1, STATE_MACHINE_CYCLES + 1):
             self._pack_each(controlword)
             try:
                 self._cycle(max(0.0, end - time.monotonic()))
@@ -341,8 +341,9 @@ class Cia402JointGroup(Cia402Frames, CanJointGroup):
                 break
         late = [f"{j.node_id:#x} ({c.state_of(int(w)) if f else 'no TPDO'})"
                 for j, w, f, good in zip(self.joints, self._statusword, self._fresh, ok) if not good]
+        limit = f"{budget:g} s" if time.monotonic() > end else f"{cycle} SYNC cycles"
         raise HardwareError(f"{self.name}: drive(s) {', '.join(late)} did not {what} within "
-                            f"{budget:g} s on {self.bus_options.label} (power, ids, bitrate, termination?)")
+                            f"{limit} on {self.bus_options.label} (power, ids, bitrate, termination?)")
 
     def _ids(self, mask) -> str:
         return ", ".join(f"{j.node_id:#x}" for j, m in zip(self.joints, mask) if m)

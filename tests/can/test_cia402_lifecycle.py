@@ -204,6 +204,20 @@ def test_a_failed_activation_says_what_failed_and_leaves_no_drive_enabled(rig):
     assert r.drive_list[0].state == c.SWITCH_ON_DISABLED  # it was enabled on the way: taken down again
 
 
+def test_a_step_of_the_state_machine_waits_sixteen_sync_cycles_and_says_so(rig):
+    """docs/cia402.md: each step waits at most 16 SYNC cycles (and exchange_timeout, far longer
+    here): a drive that answers and never follows hears 16 *shutdown* controlwords, then
+    *disable voltage*."""
+    r = rig(exchange_timeout=30.0)
+    r.configure()
+    stuck, heard = r.drive_list[1], []
+    stuck.apply_controlword = heard.append
+    with pytest.raises(HardwareError, match=r"0x2 \(SWITCH ON DISABLED\) did not reach OPERATION ENABLED within "
+                                            r"16 SYNC cycles"):
+        r.activate()
+    assert heard[:16] == [c.CW_SHUTDOWN] * 16 and heard[16:] == [c.CW_DISABLE_VOLTAGE]
+
+
 def test_a_bus_error_while_the_state_machines_step_is_a_hardware_error_and_closes_the_bus(rig):
     r = rig()
     r.configure()
