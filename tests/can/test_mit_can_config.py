@@ -6,6 +6,7 @@ from types import SimpleNamespace
 import pytest
 
 from drivers.can_joints import MitCanJointGroup
+from rtctl.config import LoopConfig
 from rtctl.errors import BusLoadError, ConfigError
 from rtctl.tomltable import Table
 
@@ -32,6 +33,7 @@ def test_without_settings_a_device_has_the_drivers_defaults_and_each_is_a_value_
     assert defaults == pytest.approx({key: constructor[key].default for key in TIMING}, rel=1e-12)
     assert timing(from_config(**defaults)) == pytest.approx(defaults, rel=1e-12)  # written out, they pass
     assert from_config().set_zero_at_configure is constructor["set_zero"].default is False  # never unasked
+    assert constructor["period"].default == 1 / LoopConfig.rate_hz  # built without a configuration: the loop's
 
 
 @pytest.mark.parametrize("key, accepted, refused", [
