@@ -12,6 +12,7 @@ tests of that day: tests are added, not weakened.
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 from pathlib import Path
 
@@ -48,7 +49,9 @@ def save(target: str, verdicts: dict[str, dict], codes: dict[str, str], rev: str
         ledger["modules"][module] = entry
     path = folder / f"{target}.json"
     folder.mkdir(exist_ok=True)
-    path.write_text(json.dumps(ledger, indent=1, sort_keys=True) + "\n")
+    text = json.dumps(ledger, indent=1, sort_keys=True)
+    text = re.sub(r"\[[\d,\s]*\]", lambda m: json.dumps(json.loads(m.group(0))), text)  # (occurrences on one line)
+    path.write_text(text + "\n")
     return path
 
 
