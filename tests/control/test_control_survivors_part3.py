@@ -267,7 +267,7 @@ def test_loop_points_follow_the_trajectory_from_its_start_with_the_drive_train(p
     from rtctl.model.regressor import slotine_li_regressor
     from rtctl.trajectory import JointLimits, through_waypoints
 
-    c = SlotineLi(puma, params0="zeros", gamma=2.0, kd=50.0)
+    c = SlotineLi(puma, params0="zeros", gamma=2.0, lam=10.0, kd=50.0)
     n = puma.nq
     start = np.array([0.0, 0.7854, -3.1416, 0.0, 0.7854, 0.0])
     limits = JointLimits(np.full(n, 10.0), np.full(n, 50.0), puma.q_min, puma.q_max)

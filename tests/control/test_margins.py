@@ -60,7 +60,7 @@ def test_stale_data_pauses_the_adaptation(puma):
     from rtctl.control.slotine_li import SlotineLi
     from rtctl.hal import JointCommand
 
-    c = SlotineLi(puma, params0="zeros", gamma=2.0, kd=50.0)
+    c = SlotineLi(puma, params0="zeros", gamma=2.0, lam=10.0, kd=50.0)
     state, ref, cmd = JointState(puma.nq), Reference(puma.nq), JointCommand(puma.nq)
     state.position[:] = ref.q[:] = [0.0, 0.7854, -3.1416, 0.0, 0.7854, 0.0]
     ref.q[1] += 0.1  # an error: s ≠ 0, so the estimates move

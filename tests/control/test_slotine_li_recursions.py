@@ -100,9 +100,9 @@ def test_dead_zone_stops_adaptation_only(puma):
     rng = np.random.default_rng(9)
     q, qd, q_d, qd_d, qdd_d, lam, gamma = random_case(puma, rng)
     s_norm = np.linalg.norm(qd - (qd_d - lam * (q - q_d)))
-    plain = SlotineLi(puma, lam=lam, gamma=gamma).compute(q, qd, q_d, qd_d, qdd_d)
-    inside = SlotineLi(puma, lam=lam, gamma=gamma, dead_zone=1.01 * s_norm).compute(q, qd, q_d, qd_d, qdd_d)
-    outside = SlotineLi(puma, lam=lam, gamma=gamma, dead_zone=0.99 * s_norm).compute(q, qd, q_d, qd_d, qdd_d)
+    plain = SlotineLi(puma, lam=lam, kd=50.0, gamma=gamma).compute(q, qd, q_d, qd_d, qdd_d)
+    inside = SlotineLi(puma, lam=lam, kd=50.0, gamma=gamma, dead_zone=1.01 * s_norm).compute(q, qd, q_d, qd_d, qdd_d)
+    outside = SlotineLi(puma, lam=lam, kd=50.0, gamma=gamma, dead_zone=0.99 * s_norm).compute(q, qd, q_d, qd_d, qdd_d)
     np.testing.assert_array_equal(inside[0], plain[0])
     assert not inside[1].any() and np.abs(plain[1]).max() > 0
     np.testing.assert_array_equal(outside[1], plain[1])
@@ -111,8 +111,8 @@ def test_dead_zone_stops_adaptation_only(puma):
 def test_motor_model_adds_the_known_drive_train(puma):
     rng = np.random.default_rng(2)
     q, qd, q_d, qd_d, qdd_d, lam, gamma = random_case(puma, rng)
-    bare = SlotineLi(puma, lam=lam, gamma=gamma).compute(q, qd, q_d, qd_d, qdd_d)[0]
-    with_motor = SlotineLi(puma, lam=lam, gamma=gamma, motor_model=True).compute(q, qd, q_d, qd_d, qdd_d)[0]
+    bare = SlotineLi(puma, lam=lam, kd=50.0, gamma=gamma).compute(q, qd, q_d, qd_d, qdd_d)[0]
+    with_motor = SlotineLi(puma, lam=lam, kd=50.0, gamma=gamma, motor_model=True).compute(q, qd, q_d, qd_d, qdd_d)[0]
     m, qddr = puma.motors, qdd_d - lam * (qd - qd_d)
     expected = bare + m.armature * qddr + m.viscous * qd + m.coulomb * np.tanh(qd / 0.01)
     np.testing.assert_allclose(with_motor, expected, rtol=1e-12, atol=1e-12)

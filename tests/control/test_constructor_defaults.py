@@ -1,0 +1,27 @@
+"""A controller built in Python without an option gets what a configuration that leaves the
+option out gets (rtctl.config's controller table): one default, not two that can drift apart."""
+from __future__ import annotations
+
+import inspect
+
+import pytest
+
+from rtctl.config import _controllers
+from rtctl.control import CONTROLLERS, Controller, controller_class
+from rtctl.tomltable import Table
+
+
+def test_every_controller_runs_every_tick_unless_told_otherwise(puma):
+    table = Table({"controllers": [{"name": "c", "type": "pd_gravity"}]}, "run.toml", "")
+    (cfg,) = _controllers(table, puma)
+    classes = [Controller, *(controller_class(t) for t in CONTROLLERS)]
+    defaults = {cls.__name__: inspect.signature(cls.__init__).parameters["divisor"].default for cls in classes}
+    assert defaults == {cls.__name__: cfg.divisor for cls in classes} and cfg.divisor == 1
+
+
+@pytest.mark.parametrize("missing", ["lam", "kd"])
+def test_slotine_li_has_no_default_gain_a_configuration_lacks(puma, missing):
+    from rtctl.control.slotine_li import SlotineLi
+
+    with pytest.raises(TypeError, match=missing):
+        SlotineLi(puma, **{k: 5.0 for k in ("lam", "kd") if k != missing})
