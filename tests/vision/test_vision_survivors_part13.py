@@ -1,0 +1,40 @@
+"""Tests for vision mutants that survived the full run's fast pass (part 13; docs/mutation/vision.md):
+
+* the camera: a focal length of 0 is refused by ``Camera.looking_at`` (a ValueError) and, in a
+  configuration, by name (``focal_px``, not the ``look_at`` that the camera's own check names);
+* the observer's search box: its half-size in columns is rounded up as its rows' is (32.5 screen
+  px at density 512: ±33 columns), not rounded down first.
+"""
+import numpy as np
+import pytest
+
+from rtctl.errors import ConfigError
+from rtctl.hal.framegrabber import Frame, GrabberSettings
+from rtctl.model import load_robot
+from rtctl.tomltable import Table
+from rtctl.vision.camera import Camera
+from rtctl.vision.pixels import unpack
+from runtime_helpers import PUMA
+from vision_rig import CAMERA
+
+PLACE = {"position": [1.7, -1.2, 0.9], "look_at": [0.35, 0.05, 0.0]}
+
+
+def test_a_focal_length_of_zero_is_refused():
+    with pytest.raises(ValueError, match="focal length must be positive"):
+        Camera.looking_at(PLACE["position"], PLACE["look_at"], 0.0)
+    with pytest.raises(ConfigError) as e:
+        Camera.from_table(Table(dict(PLACE, focal_px=0.0), "camera.toml", "camera"))
+    assert e.value.key_path.endswith("focal_px")
+
+
+@pytest.mark.parametrize("cols_away, found", [(33, True), (34, False)])
+def test_the_boxs_half_size_in_columns_is_rounded_up(cols_away, found):
+    from rtctl.vision.observer import MarkerObserver
+
+    observer = MarkerObserver("marker", load_robot(PUMA), CAMERA, search_px=32.5)
+    settings = GrabberSettings(density=512, scan="frame", word_bits=8)
+    words = np.zeros((settings.rows, settings.words_per_row), dtype=np.uint8)
+    words[100, 200 + cols_away] = 250
+    guess = Camera.to_screen(np.array([200.0, 100.0]), settings.density)
+    assert observer.measure(Frame(1, 0.0, "frame", settings, words, unpack), guess, np.zeros(2)) is found
