@@ -39,19 +39,20 @@ from rtctl.guard.config import GuardConfig, check_waypoints, load_guard
 from rtctl.model import Model, load_robot
 from rtctl.telemetry.live_view import LiveConfig, from_table as live_from_table
 from rtctl.timing.rt import MAX_TIMER_SLACK_NS, RtSettings
+from rtctl.timing.scheduler import OVERRUN_LIMIT, SPIN_MARGIN_NS
 from rtctl.tomltable import Table, load_toml
 from rtctl.trajectory.planning import MAX_DURATION_S
 
 
 MIN_RATE_HZ = 1.0  # the loop's slowest rate: a tick is at most 1 s apart
 MIN_REALTIME_FACTOR = 0.01
-SPIN_US = 200.0  # the default spin before each deadline (rtctl/timing/busy.py: why not more)
+SPIN_US = SPIN_MARGIN_NS / 1e3  # the default spin before each deadline (rtctl/timing/busy.py: why not more)
 
 
 @dataclass(frozen=True)
 class LoopConfig:
     rate_hz: float = 1000.0
-    overrun_limit: int = 50  # consecutive overruns → controlled safe stop
+    overrun_limit: int = OVERRUN_LIMIT  # consecutive overruns → controlled safe stop
     spin_us: float = SPIN_US  # sleep until deadline − spin, then spin (a quarter period at most by default)
     realtime_factor: float = 1.0  # 0 = as fast as possible (simulated devices only)
     rt: RtSettings = field(default_factory=lambda: RtSettings(gc_freeze=True))  # GC frozen while running
@@ -197,7 +198,7 @@ def _loop(t: Table | None) -> LoopConfig:
     rate_hz = t.float("rate_hz", 1000.0, positive=True, min=MIN_RATE_HZ, max=100_000.0)
     cfg = LoopConfig(
         rate_hz=rate_hz,
-        overrun_limit=t.int("overrun_limit", 50, min=1, max=1_000_000),
+        overrun_limit=t.int("overrun_limit", OVERRUN_LIMIT, min=1, max=1_000_000),
         spin_us=t.float("spin_us", min(SPIN_US, 0.25e6 / rate_hz), min=0.0, max=1e6 / MIN_RATE_HZ),
         realtime_factor=realtime_factor(t.float("realtime_factor", 1.0), t.error, "realtime_factor"),
         rt=rt,

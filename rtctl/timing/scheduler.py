@@ -54,6 +54,10 @@ def due(prev_tick: int, tick: int, divisor: int) -> bool:
     return tick // divisor != prev_tick // divisor
 
 
+OVERRUN_LIMIT = 50  # consecutive overruns → a controlled safe stop ([loop] overrun_limit's default)
+SPIN_MARGIN_NS = 200_000  # the spin before each deadline ([loop] spin_us's default; busy.py: why not more)
+
+
 class Ticker:
     """Paces the loop and keeps its statistics.
 
@@ -71,8 +75,8 @@ class Ticker:
         period_ns: int,
         *,
         realtime_factor: float = 1.0,
-        max_consecutive_overruns: int = 10,
-        spin_margin_ns: int = 200_000,
+        max_consecutive_overruns: int = OVERRUN_LIMIT,
+        spin_margin_ns: int = SPIN_MARGIN_NS,
         clock=None,
         phases=PHASES,
         busy: BusyMeter | None = None,
