@@ -3,19 +3,22 @@
 * the camera: a focal length of 0 is refused by ``Camera.looking_at`` (a ValueError) and, in a
   configuration, by name (``focal_px``, not the ``look_at`` that the camera's own check names);
 * the observer's search box: its half-size in columns is rounded up as its rows' is (32.5 screen
-  px at density 512: ±33 columns), not rounded down first.
+  px at density 512: ±33 columns), not rounded down first;
+* the host refuses a frame whose field its scan does not deliver (an odd field from a frame
+  scan), not only a field code out of range.
 """
 import numpy as np
 import pytest
 
-from rtctl.errors import ConfigError
+from drivers.protocols.framegrabber import FIELD_NAMES
+from rtctl.errors import ConfigError, ProtocolError
 from rtctl.hal.framegrabber import Frame, GrabberSettings
 from rtctl.model import load_robot
 from rtctl.tomltable import Table
 from rtctl.vision.camera import Camera
 from rtctl.vision.pixels import unpack
 from runtime_helpers import PUMA
-from vision_rig import CAMERA
+from vision_rig import CAMERA, programmed_pair
 
 PLACE = {"position": [1.7, -1.2, 0.9], "look_at": [0.35, 0.05, 0.0]}
 
@@ -38,3 +41,12 @@ def test_the_boxs_half_size_in_columns_is_rounded_up(cols_away, found):
     words[100, 200 + cols_away] = 250
     guess = Camera.to_screen(np.array([200.0, 100.0]), settings.density)
     assert observer.measure(Frame(1, 0.0, "frame", settings, words, unpack), guess, np.zeros(2)) is found
+
+
+@pytest.mark.parametrize("scan, field", [("frame", "odd"), ("odd", "even"), ("fields", "frame")])
+def test_a_field_its_scan_does_not_deliver_is_refused(scan, field):
+    settings = GrabberSettings(density=64, scan=scan, word_bits=8)
+    memory, host, dev, gen, regs = programmed_pair(settings)
+    dev.publish(dev.reserve(), 0, field, gen, regs, settings.frame_bytes)
+    with pytest.raises(ProtocolError, match=f"field code {FIELD_NAMES.index(field)}, scan '{scan}'"):
+        host.take(0.0, 0)
