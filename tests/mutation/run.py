@@ -245,7 +245,6 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
     mutant not yet killed is run: those never run and the survivors, again. ``widen=False``
     keeps a sample as it is: only the survivors (and what a stopped run left unfinished) run again."""
     from cosmic_ray.work_db import WorkDB, use_db
-    from cosmic_ray.work_item import TestOutcome, WorkerOutcome, WorkResult
 
     tree = workdir / name
     config, db = tree / "cosmic-ray.toml", tree / "session.sqlite"
@@ -261,10 +260,28 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
     _record_rev(tree, rev)
     for module, n in renew_moved_mutants(config, db, tree, _env(tree), plausible).items():
         print(f"{name}: {module} changed since its mutants were made: its {n} mutants are made again", flush=True)
+    run_again(db, tree, widen, sample)
+    if from_ledger:
+        print(f"{name}: from the ledger, {ledger.take(name, tree, db)}", flush=True)
+    with use_db(str(db), WorkDB.Mode.open) as work_db:
+        pending = sum(1 for _ in work_db.pending_work_items)  # a stopped run's unfinished ones too
+    print(f"{name}: resuming in {tree}, {pending} mutants to run", flush=True)
+    prepare(name, tree, tests)
+    _exec(config, db, tree)
+    return report(name, tree, db)
+
+
+def run_again(db: Path, tree: Path, widen: bool, sample: int | None) -> None:
+    """What a resumed run runs: every runnable mutant without a verdict — the survivors, a
+    stopped run's unfinished ones, and with ``widen`` those the sample left out — and none that
+    is not runnable (an earlier run's annotations: skipped now)."""
+    from cosmic_ray.work_db import WorkDB, use_db
+    from cosmic_ray.work_item import TestOutcome, WorkerOutcome, WorkResult
+
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         items = list(work_db.work_items)
         keep = {i.job_id for i in runnable(items)}
-        idle = [i.job_id for i in items if i.job_id not in keep]  # (a run made before annotations were left out)
+        idle = [i.job_id for i in items if i.job_id not in keep]
         again = [item.job_id for item, result in work_db.completed_work_items
                  if item.job_id in keep
                  and ((widen and result.worker_outcome == WorkerOutcome.SKIPPED
@@ -276,14 +293,6 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         work_db.set_multiple_results(idle, WorkResult(output="not in the plausible set",
                                                       worker_outcome=WorkerOutcome.SKIPPED))
-    if from_ledger:
-        print(f"{name}: from the ledger, {ledger.take(name, tree, db)}", flush=True)
-    with use_db(str(db), WorkDB.Mode.open) as work_db:
-        pending = sum(1 for _ in work_db.pending_work_items)  # a stopped run's unfinished ones too
-    print(f"{name}: resuming in {tree}, {pending} mutants to run", flush=True)
-    prepare(name, tree, tests)
-    _exec(config, db, tree)
-    return report(name, tree, db)
 
 
 def _env(tree: Path) -> dict:

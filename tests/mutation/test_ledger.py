@@ -12,7 +12,7 @@ import pytest
 
 import ledger
 from renewal import record_code
-from run import runnable
+from run import run_again, runnable
 
 cosmic_ray = pytest.importorskip("cosmic_ray", reason="the mutation extra is not installed ('.[mutation]')")
 from cosmic_ray.work_db import WorkDB, use_db  # noqa: E402
@@ -140,3 +140,18 @@ def test_a_survivor_killed_later_keeps_one_verdict(tmp_path):
     entry = ledger.load("scratch", folder)["modules"]["pkg/mod.py"]
     gt = next(op for op in entry["killed"] if op.endswith(GT))
     assert entry["killed"][gt] == [0] and gt not in entry["survived"]
+
+
+def test_a_resumed_run_skips_an_earlier_runs_annotations_and_runs_its_other_survivors_again(tmp_path):
+    db = init(tmp_path, MODULE)
+    finish(db, {GT: "killed"})  # (a run made before annotations were left out: all of them survived)
+    runnable_ids = {i.job_id for i in runnable(items(db))}
+    run_again(db, tmp_path, widen=False, sample=None)
+    with use_db(str(db), WorkDB.Mode.open) as work_db:
+        pending = {i.job_id for i in work_db.pending_work_items}
+        verdicts = {i.job_id: r for i, r in work_db.completed_work_items}
+    gt = {i.job_id for i in items(db) if i.mutations[0].operator_name.endswith(GT)}
+    assert pending == runnable_ids - gt  # the survivors, again
+    assert all(verdicts[j].worker_outcome == WorkerOutcome.SKIPPED for j in verdicts if j not in gt)
+    assert {j for j in verdicts if j not in gt} == {i.job_id for i in items(db)} - runnable_ids
+    assert bit_or_lines(db, [i for i in items(db) if i.job_id in pending]) == {4: 1, 7: 1, 8: 1}
