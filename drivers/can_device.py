@@ -93,6 +93,15 @@ class CanJointGroup(JointGroup):
         # acknowledgement already there returns at once
         self._empty_read_s = 0.5 * float(kw.get("timeout", 0.001))
 
+    def _may_hold_frames(self) -> bool:
+        """Whether a read could find a frame now. Elsewhere an empty read returns at once: always
+        look. Over slcan it waits out the serial timeout, so the port's count of bytes waiting
+        (one ioctl) decides; a bus without that count (only in tests) is always read."""
+        if not self._acks_per_send:
+            return True
+        port = getattr(self.bus, "serialPortOrig", None)
+        return port is None or port.in_waiting > 0
+
     def _drain(self, take_late) -> None:
         """Take every frame already received, without waiting: until a read finds the port
         empty — over slcan, a None that took the serial timeout, not an acknowledgement."""

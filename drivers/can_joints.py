@@ -281,9 +281,8 @@ class MitCanJointGroup(CanJointGroup):
         try:
             bus = self.bus
             late = min(self._replied) < self._sent  # answers missing at the last read: late or lost
-            # what came since the last collection (a late answer, a copy) answers nothing sent now;
-            # over slcan, where an empty read waits out the serial timeout, only when one is late
-            if late or not self._acks_per_send:
+            # what came since the last collection (a late answer, a copy) answers nothing sent now
+            if self._may_hold_frames():
                 self._drain(self._take_late if late else self._take_extra)
             if late:
                 self._forget_owed()  # the rest are as good as lost

@@ -76,3 +76,21 @@ def rigs(cls):
     for r in made:
         r.close()
         r.peer.shutdown()
+
+
+class SerialPort:
+    """What python-can's slcan bus reads from, as far as the driver looks: the count of bytes
+    waiting (here: frames in the rig's virtual bus queue)."""
+
+    def __init__(self, bus):
+        self.bus = bus
+
+    @property
+    def in_waiting(self) -> int:
+        return self.bus.queue.qsize()
+
+
+def as_over_slcan(r):
+    """The rig's bus, as over slcan: acknowledgements (two frames a send) and a serial port."""
+    r._acks_per_send = 2
+    r.bus.serialPortOrig = SerialPort(r.bus)

@@ -17,7 +17,7 @@ from drivers.can_joints import MitCanJointGroup
 from drivers.protocols.mit import KATZ, pack_reply
 from drivers.protocols.mit_layout import MitJoint
 from hil_sim.mit_drive import MitDrive, MitDriveBus, pump
-from lockstep_rig import LockStep, SlowWire, rigs, virtual_bus
+from lockstep_rig import LockStep, SlowWire, as_over_slcan, rigs, virtual_bus
 from rtctl.errors import BusLoadError, HardwareError
 from rtctl.hal import CommandMode, Status
 from rtctl.tomltable import Table
@@ -284,12 +284,12 @@ def test_a_drive_that_first_says_motor_on_then_off_has_answered_with_the_first_f
 
 
 def test_over_slcan_a_late_reply_is_still_taken_before_the_next_commands(rig):
-    """Over slcan (acknowledgements: the write drains only when an answer is missing, since an
-    empty read waits out the serial timeout) a late reply must still be taken before the next
-    commands go out, or it answers them and every state after is a period old."""
+    """Over slcan (acknowledgements, and an empty read waits out the serial timeout) a late
+    reply must still be taken before the next commands go out, or it answers them and every
+    state after is a period old."""
     r = rig(cls=SlowRig)
-    r._acks_per_send = 2  # (as over slcan: the virtual bus has no acknowledgements to read)
     r.activate()
+    as_over_slcan(r)
     r.tick()
     r.hold = True
     r.tick()  # these commands' answers are held back …

@@ -11,7 +11,7 @@ from drivers.can_joints import MitCanJointGroup
 from drivers.protocols.mit import DRIVE_MODELS, KATZ, Special, special_kind
 from drivers.protocols.mit_layout import MitJoint
 from hil_sim.mit_drive import MitDrive, MitDriveBus, pump
-from lockstep_rig import LockStep, SlowWire, rigs, silence_second_drive, virtual_bus
+from lockstep_rig import LockStep, SlowWire, as_over_slcan, rigs, silence_second_drive, virtual_bus
 from rtctl.errors import HardwareError
 from rtctl.hal import CommandMode, Status
 
@@ -337,6 +337,43 @@ def test_a_copy_received_between_a_collection_and_the_next_commands_answers_noth
     r.read(r.now)
     assert r.state.fresh.tolist() == [True, False] and r.state.position[0] == pytest.approx(0.3, abs=0.01)
     assert r.counters["missing_replies"] == 1 and r.counters["extra_replies"] == 1
+
+
+def test_over_slcan_a_copy_waiting_at_the_next_commands_answers_nothing(rig):
+    """As over a virtual bus (above): a copy that arrived after the collection is taken before
+    the commands go out. Over slcan the port's count of bytes waiting says one is there."""
+    from drivers.protocols.mit import pack_reply
+
+    r = rig()
+    r.activate()
+    as_over_slcan(r)
+    r.q[:] = 0.1
+    r.tick()
+    r.now += 0.001
+    assert r.read(r.now) == Status.OK and r.state.fresh.all()
+    r.peer.send(can.Message(arbitration_id=r.master_id, data=pack_reply(KATZ, 2, 0.1, 0.0, 0.0),
+                            is_extended_id=False))  # drive 2's answer once more
+    r.drive_list[1].faults.silent = True  # … and then drive 2 answers nothing
+    r.q[:] = 0.3
+    r.write(r.now)
+    r.now += 0.001
+    r.read(r.now)
+    assert r.state.fresh.tolist() == [True, False] and r.counters["extra_replies"] == 1
+
+
+def test_over_slcan_an_empty_port_is_not_read_before_the_commands(rig, monkeypatch):
+    """An empty read over slcan waits out the serial timeout: with no byte waiting and every
+    answer in, the write sends without reading."""
+    r = rig()
+    r.activate()
+    as_over_slcan(r)
+    r.tick()
+    r.now += 0.001
+    assert r.read(r.now) == Status.OK and r.state.fresh.all()
+    reads = []
+    recv = r.bus.recv
+    monkeypatch.setattr(r.bus, "recv", lambda timeout=None: reads.append(timeout) or recv(timeout))
+    assert r.write(r.now) == Status.OK and reads == []
 
 
 def test_a_reply_later_than_the_next_commands_is_not_their_answer_so_the_measurement_stays_one_period_old(slow_rig):
