@@ -78,7 +78,8 @@ class Cia402Frames:
         send the RPDOs and a SYNC; the TPDOs are awaited until ``timeout`` s from now
         (:meth:`_collect`)."""
         bus = self.bus
-        self._drain(self._take_late)
+        if self._may_hold_frames():  # (over slcan an empty read waits out the serial timeout)
+            self._drain(self._take_late)
         got = self._got
         for row in range(len(got)):
             got[row] = 0

@@ -12,7 +12,7 @@ from drivers.protocols import cia402 as c
 from drivers.protocols.cia402_layout import Cia402Joint
 from hil_sim.cia402_drive import Cia402Drive, Cia402DriveBus
 from hil_sim.mit_drive import pump
-from lockstep_rig import LockStep, SlowWire, rigs, silence_second_drive, virtual_bus
+from lockstep_rig import LockStep, SlowWire, as_over_slcan, rigs, silence_second_drive, virtual_bus
 from rtctl.errors import HardwareError
 from rtctl.hal import CommandMode, Status
 
@@ -287,10 +287,14 @@ def test_in_lock_step_read_waits_for_the_tpdos_until_the_deadline(slow_rig):
     assert np.abs(r.state.position - r.q).max() <= P_LSB and r.counters["missing_replies"] == 0
 
 
-def test_tpdos_missing_at_the_deadline_are_missing_and_count_late_when_they_come(slow_rig):
-    """… and not beyond it: what has not come is missing (stale), and taken as late when it comes."""
+@pytest.mark.parametrize("over_slcan", [False, True])
+def test_tpdos_missing_at_the_deadline_are_missing_and_count_late_when_they_come(slow_rig, over_slcan):
+    """… and not beyond it: what has not come is missing (stale), and taken as late when it comes
+    (over slcan too, where the write reads only what the serial port says is waiting)."""
     r = slow_rig(reply_deadline=0.5)
     r.activate()
+    if over_slcan:
+        as_over_slcan(r)
     r.tick()
     r.read(r.now)  # the tick's TPDOs taken
     r.hold = True
@@ -300,6 +304,20 @@ def test_tpdos_missing_at_the_deadline_are_missing_and_count_late_when_they_come
     pump(r.drives, r.peer, now=r.now)
     r.write(r.now)  # takes them before its SYNC
     assert r.counters["late_replies"] == 4  # two TPDOs per drive
+
+
+def test_over_slcan_an_empty_port_is_not_read_before_the_sync(rig, monkeypatch):
+    """An empty read over slcan waits out the serial timeout: with no byte waiting, the tick's
+    write sends its RPDOs and SYNC without reading."""
+    r = rig()
+    r.activate()
+    as_over_slcan(r)
+    r.tick()
+    assert r.read(r.now) == Status.OK and r.state.fresh.all()
+    reads = []
+    recv = r.bus.recv
+    monkeypatch.setattr(r.bus, "recv", lambda timeout=None: reads.append(timeout) or recv(timeout))
+    assert r.write(r.now) == Status.OK and reads == []
 
 
 def test_bring_up_asks_no_drive_for_torque_before_the_first_command(rig):
