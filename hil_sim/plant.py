@@ -22,6 +22,7 @@ import numpy as np
 from rtctl.compiled import kernel
 from rtctl.model.dynamics import Data, model_arrays
 from rtctl.model.forward_dynamics import forward_dynamics_kernel
+from rtctl.model.robot import COULOMB_VELOCITY
 
 
 # The plant's per-joint vectors are the rows of one array, so that a period is one compiled call
@@ -93,7 +94,7 @@ INTEGRATORS = ("euler", "rk4")
 
 class Plant:
     def __init__(self, model, *, substeps: int = 4, friction_scale: float = 1.0, armature: bool = True,
-                 coulomb_velocity: float = 0.01, q0=None, integrator: str = "euler"):
+                 coulomb_velocity: float = COULOMB_VELOCITY, q0=None, integrator: str = "euler"):
         if integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
         self.model = model

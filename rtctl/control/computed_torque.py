@@ -19,6 +19,7 @@ from rtctl.control.motor import motor_feedforward_add
 from rtctl.control.tunable import Tunable
 from rtctl.model.dynamics import Data, model_arrays
 from rtctl.model.rnea import rnea_kernel
+from rtctl.model.robot import COULOMB_VELOCITY
 
 
 KP, KD, ARMATURE, VISCOUS, COULOMB = range(5)  # gains (5, n)
@@ -44,7 +45,8 @@ class ComputedTorque(Controller):
     ``kp``, ``kd`` (one number or one per joint, ≥ 0); ``motor_model`` (default true: the robot
     file's armature and friction as feed-forward)."""
 
-    def __init__(self, name, model, kp, kd, joints=None, divisor=1, motor_model=True, coulomb_velocity=0.01):
+    def __init__(self, name, model, kp, kd, joints=None, divisor=1, motor_model=True,
+                 coulomb_velocity=COULOMB_VELOCITY):
         super().__init__(name, model, joints, divisor)
         n = model.nq
         self.gains = np.zeros((5, n))

@@ -43,6 +43,7 @@ from rtctl.control.tunable import Tunable
 from rtctl.control.slotine_li_kernels import ARMATURE, CLASSIC, COULOMB, COULOMB_VELOCITY, CSTAR, \
     DEAD_ZONE, KD, LAM, LAW, MOTOR, PROJECT, STEP, TAU, VISCOUS, CUT_ROW, slotine_li_update_kernel, \
     work_rows
+from rtctl.model import robot
 from rtctl.model.data import BODY_SLOTS
 from rtctl.model.dynamics import model_arrays
 
@@ -112,7 +113,7 @@ class SlotineLi(Controller):
     """
 
     def __init__(self, model, law="cstar", *, lam, kd, gamma=1.0, params0="true", joints=None, divisor=1,
-                 projection=False, dead_zone=0.0, params_scale=1.0, motor_model=False, coulomb_velocity=0.01,
+                 projection=False, dead_zone=0.0, params_scale=1.0, motor_model=False, coulomb_velocity=robot.COULOMB_VELOCITY,
                  name="slotine_li"):
         super().__init__(name, model, joints, divisor)
         if law not in LAWS:

@@ -46,9 +46,13 @@ class DHTable:
     theta0: np.ndarray
 
 
+COULOMB_VELOCITY = 0.01  # v_c (rad/s, m/s): Coulomb friction acts as coulomb·tanh(q̇ / v_c), in the plant and the feed-forward
+
+
 @dataclass(frozen=True)
 class Motors:
-    """Per-joint drive-train data, referred to the joint side (N·m, N·m·s/rad, kg·m²)."""
+    """Per-joint drive-train data, referred to the joint side (N·m, N·m·s/rad, kg·m²); Coulomb
+    friction is smoothed as coulomb·tanh(q̇ / ``COULOMB_VELOCITY``)."""
 
     armature: np.ndarray  # reflected rotor inertia G²·J_m
     viscous: np.ndarray  # viscous friction coefficient

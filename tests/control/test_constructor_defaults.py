@@ -25,3 +25,15 @@ def test_slotine_li_has_no_default_gain_a_configuration_lacks(puma, missing):
 
     with pytest.raises(TypeError, match=missing):
         SlotineLi(puma, **{k: 5.0 for k in ("lam", "kd") if k != missing})
+
+
+def test_the_drive_train_feed_forward_smooths_coulomb_friction_as_the_simulated_plant_does():
+    """The feed-forward cancels the plant's friction only with the plant's own tanh(q̇ / v_c):
+    0.01 rad/s (docs/mujoco.md), by default in both."""
+    from hil_sim.plant import Plant
+    from rtctl.control.computed_torque import ComputedTorque
+    from rtctl.control.slotine_li import SlotineLi
+
+    v_c = {cls.__name__: inspect.signature(cls.__init__).parameters["coulomb_velocity"].default
+           for cls in (ComputedTorque, SlotineLi, Plant)}
+    assert v_c == {"ComputedTorque": 0.01, "SlotineLi": 0.01, "Plant": 0.01}
