@@ -5,12 +5,14 @@
 * the observer's search box: its half-size in columns is rounded up as its rows' is (32.5 screen
   px at density 512: ±33 columns), not rounded down first;
 * the host refuses a frame whose field its scan does not deliver (an odd field from a frame
-  scan), not only a field code out of range.
+  scan), not only a field code out of range;
+* the registers give back every setting written, each from its own word (a window whose x and
+  y differ: decode took x from y's word, and every setting used so far had x = y).
 """
 import numpy as np
 import pytest
 
-from drivers.protocols.framegrabber import FIELD_NAMES
+from drivers.protocols.framegrabber import FIELD_NAMES, decode, encode
 from rtctl.errors import ConfigError, ProtocolError
 from rtctl.hal.framegrabber import Frame, GrabberSettings
 from rtctl.model import load_robot
@@ -50,3 +52,9 @@ def test_a_field_its_scan_does_not_deliver_is_refused(scan, field):
     dev.publish(dev.reserve(), 0, field, gen, regs, settings.frame_bytes)
     with pytest.raises(ProtocolError, match=f"field code {FIELD_NAMES.index(field)}, scan '{scan}'"):
         host.take(0.0, 0)
+
+
+def test_the_registers_give_back_every_setting_each_from_its_own_word():
+    settings = GrabberSettings(density=(256, 128), window=(16, 48, 96, 64), scan="odd", offset=3, gain=140,
+                               levels=16, word_bits=16, shots=5)
+    assert decode(encode(settings, 7)) == settings
