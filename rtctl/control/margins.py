@@ -120,7 +120,6 @@ def loop_points(model, controller, trajectory, *, samples: int = 60, motor_model
     the robot file's drive train (``motor_model``), H includes the rotors' armature and the
     damping the viscous friction: what is left of them around the feed-forward."""
     n = model.nq
-    kind = "cstar" if controller.law == "cstar" else "christoffel"
     P = controller.gamma.reshape(-1)
     motors = model.motors if motor_model else None
     armature = np.zeros(n) if motors is None else motors.armature
@@ -128,7 +127,7 @@ def loop_points(model, controller, trajectory, *, samples: int = 60, motor_model
     q, qd, qdd = np.zeros(n), np.zeros(n), np.zeros(n)
     for t in np.linspace(trajectory.knots[0], trajectory.t_end, samples):
         trajectory.sample(t, q, qd, qdd)
-        Y = slotine_li_regressor(model, q, qd, qd, qdd, kind)
+        Y = slotine_li_regressor(model, q, qd, qd, qdd)  # (q̇_r = q̇: C q̇ is one vector, whichever law's C)
         yield mass_matrix(model, q) + np.diag(armature), (Y * P) @ Y.T, damping
 
 

@@ -55,6 +55,21 @@ def test_shipped_cstar_configs_have_the_stated_margins():
     assert p_max[1] >= 3.0 and p_max[2] >= 2.0 and "UNSTABLE" not in out.stdout
 
 
+def test_under_perfect_tracking_the_regressor_is_the_same_for_either_law(puma):
+    """loop_points builds one regressor for both laws: with q̇_r = q̇, C(q, q̇) q̇ is the same
+    Coriolis vector for every factorisation, so Y π is, for every π."""
+    from rtctl.model.regressor import slotine_li_regressor
+
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        q, qd, qdd = rng.normal(size=(3, puma.nq))
+        np.testing.assert_allclose(slotine_li_regressor(puma, q, qd, qd, qdd, "christoffel"),
+                                   slotine_li_regressor(puma, q, qd, qd, qdd, "cstar"), rtol=0, atol=1e-12)
+        qdr = rng.normal(size=puma.nq)  # (not so otherwise: the two laws differ)
+        assert not np.allclose(slotine_li_regressor(puma, q, qd, qdr, qdd, "christoffel"),
+                               slotine_li_regressor(puma, q, qd, qdr, qdd, "cstar"))
+
+
 def test_stale_data_pauses_the_adaptation(puma):
     from rtctl.control.base import Reference
     from rtctl.control.slotine_li import SlotineLi
