@@ -10,7 +10,8 @@ every rtctl/control mutant found unchecked (docs/mutation/control.md):
 * a configuration without ``dead_zone`` has none (default 0, documented), "scaled" without a
   scale (in a configuration or the constructor) is the model's parameters;
 * ``compute`` changes no state: with the projection on and an inconsistent π̂, π̂ stays as it
-  was (the projection runs only with an integration step).
+  was (the projection runs only with an integration step);
+* a bad ``gamma`` and a bad ``params0`` file each name their own key (the restarted full run).
 """
 from __future__ import annotations
 
@@ -67,3 +68,19 @@ def test_a_configuration_without_a_dead_zone_or_a_scale_has_neither(tmp_path):
 
 def test_the_constructors_scaled_estimate_without_a_scale_is_the_models(puma):
     np.testing.assert_array_equal(SlotineLi(puma, lam=10.0, kd=50.0, params0="scaled").params0, puma.params)
+
+
+@pytest.mark.parametrize("options, key", [
+    ("", "gamma"),  # gamma = −0.5, refused by adaptation_gains: named as gamma
+    ('params0 = "estimates.npy"\n', "params0"),  # a file of the wrong shape
+])
+def test_a_bad_gamma_or_initial_estimate_file_names_its_own_key(tmp_path, options, key):
+    from rtctl.errors import ConfigError
+
+    path = configured(tmp_path, options)
+    if key == "gamma":
+        path.write_text(path.read_text().replace("gamma = 1.0\n", "gamma = -0.5\n", 1))
+    np.save(tmp_path / "estimates.npy", np.zeros(7))
+    with pytest.raises(ConfigError) as e:
+        build(load_config(path))
+    assert e.value.key_path.endswith(key)
