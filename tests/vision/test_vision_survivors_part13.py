@@ -6,6 +6,8 @@
   px at density 512: ±33 columns), not rounded down first;
 * the host refuses a frame whose field its scan does not deliver (an odd field from a frame
   scan), not only a field code out of range;
+* the search box is at least ±2 image rows as it is ±2 columns, and a guess whose box lies
+  wholly outside the image measures nothing (False, not a NaN taken as found);
 * the registers give back every setting written, each from its own word (a window whose x and
   y differ: decode took x from y's word, and every setting used so far had x = y).
 """
@@ -58,3 +60,26 @@ def test_the_registers_give_back_every_setting_each_from_its_own_word():
     settings = GrabberSettings(density=(256, 128), window=(16, 48, 96, 64), scan="odd", offset=3, gain=140,
                                levels=16, word_bits=16, shots=5)
     assert decode(encode(settings, 7)) == settings
+
+
+def _measure(settings, marker_row, marker_col, guess_col, guess_row, search_px):
+    from rtctl.vision.observer import MarkerObserver
+
+    observer = MarkerObserver("marker", load_robot(PUMA), CAMERA, search_px=search_px)
+    words = np.zeros((settings.rows, settings.words_per_row), dtype=np.uint8)
+    words[marker_row, marker_col] = 250
+    guess = Camera.to_screen(np.array([guess_col, guess_row]), settings.density)
+    out = np.zeros(2)
+    return observer.measure(Frame(1, 0.0, "frame", settings, words, unpack), guess, out), out
+
+
+@pytest.mark.parametrize("rows_away, found", [(2, True), (3, False)])
+def test_the_box_is_at_least_two_image_rows_either_way(rows_away, found):
+    settings = GrabberSettings(density=64, scan="frame", word_bits=8)
+    assert _measure(settings, 20 + rows_away, 30, 30.0, 20.0, search_px=1.0)[0] is found
+
+
+def test_a_box_wholly_below_the_image_measures_nothing():
+    settings = GrabberSettings(density=64, scan="frame", word_bits=8)
+    found, out = _measure(settings, 60, 30, 30.0, 200.0, search_px=1.0)
+    assert found is False and np.isnan(out).all()
