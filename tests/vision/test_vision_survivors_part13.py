@@ -8,6 +8,8 @@
   scan), not only a field code out of range;
 * the search box is at least ±2 image rows as it is ±2 columns, and a guess whose box lies
   wholly outside the image measures nothing (False, not a NaN taken as found);
+* the one-pass digitiser and packer gives what ``digitise`` then ``pack`` give, with a black
+  offset too (its offset was only ever 0 there);
 * the registers give back every setting written, each from its own word (a window whose x and
   y differ: decode took x from y's word, and every setting used so far had x = y).
 """
@@ -20,7 +22,7 @@ from rtctl.hal.framegrabber import Frame, GrabberSettings
 from rtctl.model import load_robot
 from rtctl.tomltable import Table
 from rtctl.vision.camera import Camera
-from rtctl.vision.pixels import unpack
+from rtctl.vision.pixels import digitise, digitise_pack, pack, unpack
 from runtime_helpers import PUMA
 from vision_rig import CAMERA, programmed_pair
 
@@ -83,3 +85,13 @@ def test_a_box_wholly_below_the_image_measures_nothing():
     settings = GrabberSettings(density=64, scan="frame", word_bits=8)
     found, out = _measure(settings, 60, 30, 30.0, 200.0, search_px=1.0)
     assert found is False and np.isnan(out).all()
+
+
+@pytest.mark.parametrize("offset", [0, 1, 100, 255])
+def test_digitising_and_packing_in_one_pass_is_both_in_turn_with_a_black_offset(offset):
+    rng = np.random.default_rng(offset)
+    analog = rng.uniform(0.0, 1.0, (4, 32)).astype(np.float32)
+    levels = np.zeros(analog.shape, dtype=np.uint8)
+    digitise(analog, offset, 1.0, 16, levels)
+    expected = pack(levels, 4, 16)
+    np.testing.assert_array_equal(digitise_pack(analog, offset, 1.0, 16, np.zeros_like(expected)), expected)
