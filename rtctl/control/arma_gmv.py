@@ -135,8 +135,8 @@ class ArmaGmv(Controller):
         self.iset[JOINTS:] = self.joints
         self.fset[LAM], self.fset[R_MIN] = f.lam, f.R_min
         self._t_prev = math.nan
-        self.internals = {"a_hat": f.theta[:order.na], "b_hat": f.theta[order.na:], "r_hat": f.signals[0],
-                          "R_hat": f.signals[1], "eps": f.signals[2], "u": self.u_hist[0]}
+        self.internals = {"a_hat": f.theta[:order.na], "b_hat": f.theta[order.na:], "r_hat": f.r_hat,
+                          "R_hat": f.R_hat, "eps": f.eps, "u": self.u_hist[0]}
         self.reset()
 
     @classmethod

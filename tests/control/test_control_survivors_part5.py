@@ -94,7 +94,7 @@ def test_a_gate_without_hysteresis_given_is_a_plain_comparator(tmp_path):
 
 def test_leg_settle_counts_passes_only_in_a_tick_that_changed_the_state(tmp_path):
     board, c = _leg(tmp_path)
-    assert c.internals["leg_state"].shape == (1,)
+    assert c.internals["leg_state"].shape == c.internals["leg_settle"].shape == (1,)  # one channel each
     board.configure()
     board.activate()
     c.reset(None)

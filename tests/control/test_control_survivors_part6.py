@@ -1,0 +1,65 @@
+"""Tests for control mutants that survived the fast pass of the restarted run over every mutant
+(docs/mutation/control.md), part 6:
+
+* the ARMA/GMV telemetry's r̂, R̂ and ε are the filter's statistics of those names (a mapping
+  by row number let ε be published as R̂);
+* the stability margins' search: a factor is doubled or halved at most 12 times, so a loop
+  still stable at ×4096 (or 1/4096) reports ∞ (or 0), and a finite margin is bisected in log
+  to within 2^(2^−20) of the edge (docs/cstar_delay.md).
+"""
+import numpy as np
+import pytest
+
+from arma_loop import shipped
+from rtctl.control.base import Reference
+from rtctl.control.margins import stable_interval
+from rtctl.hal.joints import JointCommand, JointState
+
+
+def test_the_telemetrys_noise_statistics_are_the_filters():
+    """After a few steps ε takes both signs while R̂ stays at or above R_min: a channel named R̂
+    that carried ε (or r̂) would not."""
+    cfg, c = shipped()
+    n = cfg.model.nq
+    y0 = cfg.sim.vector("initial_q", n)
+    state, ref, cmd = JointState(n), Reference(n), JointCommand(n)
+    state.position[:] = ref.q[:] = y0
+    ref.q[:] = y0 + 2e-3
+    c.reset(state)
+    eps = []
+    for k in range(12):
+        state.position[:] = y0 + 1e-4 * np.sin(1.7 * k)
+        c.update(0.02 * k, state, ref, cmd)
+        eps.append(c.internals["eps"].copy())
+    f, tel = c.filter, c.internals
+    eps = np.array(eps)
+    assert (eps < 0).any() and (eps > 0).any()
+    assert np.all(tel["R_hat"] >= f.R_min) and np.all(tel["R_hat"] > 0)
+    for name, row in (("r_hat", f.r_hat), ("R_hat", f.R_hat), ("eps", f.eps)):
+        assert np.shares_memory(tel[name], row) and tel[name].shape == row.shape == (n,), name
+        np.testing.assert_array_equal(tel[name], row)
+    assert not np.array_equal(tel["R_hat"], tel["eps"]) and not np.array_equal(tel["R_hat"], tel["r_hat"])
+
+
+@pytest.mark.parametrize("edge, expected", [(5000.0, np.inf), (4000.0, 4000.0)])
+def test_a_factor_beyond_twelve_doublings_is_unbounded(edge, expected):
+    lo, hi = stable_interval(lambda f: f < edge)
+    assert lo == 0.0  # stable down to 1/4096 and below: no lower edge
+    assert hi == pytest.approx(expected, rel=1e-6) and (hi == np.inf or hi <= edge)
+
+
+@pytest.mark.parametrize("edge, expected", [(1 / 5000, 0.0), (1 / 4000, 1 / 4000)])
+def test_a_factor_below_twelve_halvings_is_unbounded_below(edge, expected):
+    lo, hi = stable_interval(lambda f: f > edge)
+    assert hi == np.inf
+    assert lo == pytest.approx(expected, rel=1e-6) and (lo == 0.0 or lo >= edge)
+
+
+@pytest.mark.parametrize("edge", [1.3, 7.3, 77.7, 0.031])
+def test_a_finite_margin_is_bisected_to_within_one_millionth_of_its_edge(edge):
+    """20 log-bisections of one doubling: the stable end is at most 2^(2^−20) − 1 ≈ 6.6e−7 below
+    the edge, relative."""
+    lo, hi = stable_interval(lambda f: 0.01 < f < edge) if edge > 1 else stable_interval(lambda f: edge < f < 100)
+    found = hi if edge > 1 else lo
+    ratio = edge / found if edge > 1 else found / edge
+    assert 1.0 <= ratio <= 2.0 ** (2.0**-20) * (1 + 1e-12)
