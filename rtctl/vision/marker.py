@@ -23,10 +23,7 @@ def _centroid(img, r0, r1, c0, c1, min_contrast, out):
             total += v
             if v > top:
                 top = v
-    count = (r1 - r0) * (c1 - c0)
-    if count <= 0:
-        return False
-    mean = total / count
+    mean = total / ((r1 - r0) * (c1 - c0))  # a box of at least one pixel (``locate``)
     if top - mean < min_contrast:
         return False
     threshold = 0.5 * (top + mean)

@@ -3,6 +3,7 @@
 
 * the ARMA/GMV telemetry's r̂, R̂ and ε are the filter's statistics of those names (a mapping
   by row number let ε be published as R̂);
+* a loop with ρ = 1 exactly (no damping, no adaptation) is not stable;
 * the stability margins' search: a factor is doubled or halved at most 12 times, so a loop
   still stable at ×4096 (or 1/4096) reports ∞ (or 0), and a finite margin is bisected in log
   to within 2^(2^−20) of the edge (docs/cstar_delay.md).
@@ -12,7 +13,7 @@ import pytest
 
 from arma_loop import shipped
 from rtctl.control.base import Reference
-from rtctl.control.margins import stable_interval
+from rtctl.control.margins import point_margins, stable_interval
 from rtctl.hal.joints import JointCommand, JointState
 
 
@@ -63,3 +64,12 @@ def test_a_finite_margin_is_bisected_to_within_one_millionth_of_its_edge(edge):
     found = hi if edge > 1 else lo
     ratio = edge / found if edge > 1 else found / edge
     assert 1.0 <= ratio <= 2.0 ** (2.0**-20) * (1 + 1e-12)
+
+
+def test_a_loop_on_the_unit_circle_is_not_stable():
+    """Stable means ρ < 1 (docs/cstar_delay.md): with no damping and no adaptation the map is
+    the identity, ρ = 1 exactly — an undamped joint keeps any error forever. No factor of
+    either gain makes it stable."""
+    m = point_margins(np.eye(2), np.zeros(2), np.zeros((2, 2)), 0.001, 0)
+    assert m.rho == 1.0 and m.rho_pd == 1.0
+    assert np.isnan([m.p_max, m.kd_min, m.kd_max]).all()
