@@ -307,3 +307,31 @@ def test_over_slcan_a_late_reply_is_still_taken_before_the_next_commands(rig):
         seen.append((r.state.position.round(3).tolist(), r.state.fresh.tolist()))
     assert seen == [([x, x], [True, True]) for x in (0.3, 0.5)]
     assert r.counters["late_replies"] == 2
+
+
+@pytest.mark.parametrize("later, frames", [(0.25, [2, 2]), (0.25 + 2**-20, [1, 1])], ids=["at", "past"])
+def test_a_reply_given_up_on_is_owed_until_more_than_exchange_timeout_passed(rig, monkeypatch, later, frames):
+    """exchange_timeout bounds a reply's lateness, inclusively: at exactly that time after the
+    give-up drive b's missing reply may still come, so its answer to the first exit frame is
+    taken for it and a second frame goes out (to every drive); any later it is lost, as in the
+    test above, and one frame does.
+    The driver's own clock is a fake one here (0.25 s and 100 s are exact in binary)."""
+    from drivers import can_joints
+
+    clock = [100.0]
+    monkeypatch.setattr(can_joints, "time", SimpleNamespace(monotonic=lambda: clock[0]))
+    r = rig(exchange_timeout=0.25)
+    r.activate()
+    r.tick()
+    r.drive_list[1].faults.silent = True
+    r.tick()
+    r.read(r.now)  # b's reply is missing …
+    r.drive_list[1].faults.silent = False
+    r.write(r.now)  # … and given up on here, at 100 s
+    clock[0] += later
+    for _ in range(3):
+        assert r.tick() == (Status.OK, Status.OK)
+    r.read(r.now)
+    before = [exit_frames(d) for d in r.drive_list]
+    r.deactivate()
+    assert [exit_frames(d) - b for d, b in zip(r.drive_list, before)] == frames
