@@ -85,7 +85,7 @@ class HostPort:
         if seq != self.own[O_SEQ]:
             raise ProtocolError(f"slot {slot}: header sequence number {seq}, the device published {self.own[O_SEQ]}")
         settings = self._settings_of(gen, h)
-        if not 0 <= field < len(FIELD_NAMES) or field not in SCAN_FIELDS[settings.scan]:
+        if field not in SCAN_FIELDS[settings.scan]:  # (every code a scan delivers is a field's)
             raise ProtocolError(f"slot {slot}: field code {field}, scan {settings.scan!r} delivers "
                                 f"{[FIELD_NAMES[f] for f in SCAN_FIELDS[settings.scan]]}")
         if int(h[F_NBYTES]) != settings.frame_bytes:

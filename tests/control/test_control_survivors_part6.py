@@ -3,6 +3,7 @@
 
 * the ARMA/GMV telemetry's r̂, R̂ and ε are the filter's statistics of those names (a mapping
   by row number let ε be published as R̂);
+* inside the dead zone every parameter rate is 0, also after a tick that adapted;
 * a loop with ρ = 1 exactly (no damping, no adaptation) is not stable;
 * the stability margins' search: a factor is doubled or halved at most 12 times, so a loop
   still stable at ×4096 (or 1/4096) reports ∞ (or 0), and a finite margin is bisected in log
@@ -14,6 +15,7 @@ import pytest
 from arma_loop import shipped
 from rtctl.control.base import Reference
 from rtctl.control.margins import point_margins, stable_interval
+from rtctl.control.slotine_li import SlotineLi
 from rtctl.hal.joints import JointCommand, JointState
 
 
@@ -73,3 +75,16 @@ def test_a_loop_on_the_unit_circle_is_not_stable():
     m = point_margins(np.eye(2), np.zeros(2), np.zeros((2, 2)), 0.001, 0)
     assert m.rho == 1.0 and m.rho_pd == 1.0
     assert np.isnan([m.p_max, m.kd_min, m.kd_max]).all()
+
+
+def test_inside_the_dead_zone_every_rate_is_zero_after_an_adapting_tick(puma):
+    """dπ̂/dt = 0 while ‖s‖ ≤ dead_zone — all ten parameters of every link, also when the tick
+    before adapted (a zeroing loop one short left the tenth rate, I_zz's, from that tick)."""
+    rng = np.random.default_rng(9)
+    q_d, qd_d, qdd_d = rng.uniform(-1.5, 1.5, 6), rng.uniform(-2, 2, 6), rng.uniform(-5, 5, 6)
+    q, qd = q_d + rng.normal(0, 0.2, 6), rng.uniform(-2, 2, 6)
+    c = SlotineLi(puma, lam=5.0, kd=50.0, gamma=rng.uniform(0.1, 3, (6, 10)), dead_zone=1e-3)
+    _, adapting = c.compute(q, qd, q_d, qd_d, qdd_d)
+    assert np.any(adapting[:, 9] != 0.0)  # the tenth rate moved
+    _, resting = c.compute(q_d, qd_d, q_d, qd_d, qdd_d)  # s = 0
+    np.testing.assert_array_equal(resting, 0.0)

@@ -79,6 +79,24 @@ def test_a_mutant_inside_an_annotation_is_left_out_only_where_annotations_are_po
     assert bit_or_lines(db, runnable(items(db))) == {3: 1, 6: 3, 7: 1}  # (evaluated: a mutant can fail there)
 
 
+HOLDER = '''\
+from __future__ import annotations
+
+
+class Holder:
+    def __init__(self):
+        self.frames: list[int | None] = [None] * (2 | 1)
+'''
+
+
+def test_an_annotated_assignments_annotation_is_left_out_and_its_value_kept(tmp_path):
+    db = init(tmp_path, HOLDER)
+    assert bit_or_lines(db, runnable(items(db))) == {6: 1}
+    eager = tmp_path / "eager"
+    db = init(eager, HOLDER.replace("from __future__ import annotations\n", ""))
+    assert bit_or_lines(db, runnable(items(db))) == {5: 2}
+
+
 def finish(db: Path, outcome: dict[str, str]) -> None:
     """Give each item the verdict ``outcome[mutated operator's name]``, "survived" by default."""
     with use_db(str(db), WorkDB.Mode.open) as work_db:

@@ -1,11 +1,13 @@
 """Mutation sites that Python never evaluates (tests/mutation/run.py leaves them out).
 
-In a module with ``from __future__ import annotations`` (PEP 563) every annotation of an
-argument or a return is kept as a string and never evaluated unless someone asks for it
-(``typing.get_type_hints``; rtctl does not). A mutant there, such as ``float | None`` →
-``float & None``, cannot change behaviour: it is equivalent by construction, and running the
-tests for it only costs time and inflates the survival rate. (cosmic-ray makes no mutant in
-an annotated assignment, value or annotation.)
+In a module with ``from __future__ import annotations`` (PEP 563) every annotation — of an
+argument, a return or an annotated assignment (``self.frames: list[Frame | None] = …``, a
+dataclass field) — is kept as a string and never evaluated unless someone asks for it
+(``typing.get_type_hints``; rtctl does not; ``dataclasses`` only looks for ``ClassVar`` and
+``InitVar`` in the string, which no mutation operator writes). A mutant there, such as
+``float | None`` → ``float & None``, cannot change behaviour: it is equivalent by construction,
+and running the tests for it only costs time and inflates the survival rate. The assigned
+value is code, and stays in.
 """
 from __future__ import annotations
 
@@ -29,6 +31,8 @@ def _annotations(module: ast.Module):
                     yield a.annotation
             if node.returns is not None:
                 yield node.returns
+        elif isinstance(node, ast.AnnAssign):
+            yield node.annotation
 
 
 def _column(lines: list[str], row: int, byte_offset: int) -> int:

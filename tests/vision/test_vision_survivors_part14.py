@@ -1,11 +1,16 @@
 """Tests for vision mutants that survived the fast pass of the restarted full run
 (docs/mutation/vision.md, part 14): ``locate``'s output is four float64 numbers, refused
 otherwise whatever its type (an ``and`` for an ``or`` let a float64 array of another shape
-through to the compiled centroid, which writes four elements)."""
+through to the compiled centroid, which writes four elements); a header's field code that
+names no field is refused whatever the scan."""
 import numpy as np
 import pytest
 
+from drivers.protocols.framegrabber import F_FIELD
+from rtctl.errors import ProtocolError
+from rtctl.hal.framegrabber import GrabberSettings
 from rtctl.vision.marker import locate
+from vision_rig import programmed_pair
 
 
 @pytest.mark.parametrize("out", [np.zeros(3), np.zeros(5), np.zeros((4, 1)), [0.0] * 4],
@@ -15,3 +20,17 @@ def test_locate_refuses_an_out_that_is_not_four_float64s(out):
     img[3:5, 3:5] = 255
     with pytest.raises(ValueError, match="float64 array of 4"):
         locate(img, (4.0, 4.0), (2, 2), 256, 0.1, out)
+
+
+@pytest.mark.parametrize("code", [-1, 3, 4, 1 << 40])
+@pytest.mark.parametrize("scan", ["frame", "odd", "even", "fields"])
+def test_a_field_code_that_names_no_field_is_refused_for_every_scan(scan, code):
+    """A header's field code comes from the shared segment: a code that is no field (below 0,
+    past the last, huge) is a protocol error naming it, whatever the scan."""
+    settings = GrabberSettings(density=64, scan=scan, word_bits=8)
+    memory, host, dev, gen, regs = programmed_pair(settings)
+    slot = dev.reserve()
+    dev.publish(slot, 0, "frame", gen, regs, settings.frame_bytes)
+    memory.slot_headers[slot][F_FIELD] = code
+    with pytest.raises(ProtocolError, match=f"field code {code}, scan '{scan}'"):
+        host.take(0.0, 0)
