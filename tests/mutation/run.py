@@ -34,6 +34,10 @@ a survivor of both counts.
 ``--sample N`` evaluates a fixed pseudo-random subset of N mutants per target, chosen from a
 hash of (file, operator, occurrence), so two commits are compared on the same mutants; a
 larger N holds every mutant of a smaller one, so a sample can be widened in place.
+
+``--shard K/N`` runs only the K-th of N disjoint parts of those mutants (the same hash modulo
+N), so N runs in N work directories share the cores; ``--save-ledger`` of each merges
+the whole. A later ``--resume`` without it runs what the other shards left out.
 """
 from __future__ import annotations
 
@@ -53,6 +57,7 @@ from pathlib import Path
 import ledger
 from mutant_tests import TOOL_ERROR  # what the test command prints (this script's folder)
 from renewal import CR, record_code, renew_moved_mutants
+from subsets import in_sample, in_shard, parse_shard, sample_key
 from targets import TARGETS
 from unevaluated import unevaluated_jobs
 
@@ -93,11 +98,18 @@ def runnable(items) -> list:
     return [i for i in items if i.job_id not in idle]
 
 
-def in_sample(key: str, sample: int | None, total: int) -> bool:
-    if sample is None or sample >= total:
-        return True
-    h = int.from_bytes(hashlib.sha256(key.encode()).digest()[:8], "big")
-    return h < sample / total * 2**64
+def skip_other_shards(db: Path, tree: Path, shard: tuple[int, int] | None) -> int:
+    """Mark every mutant still to run that is not in ``shard`` as skipped (a resume without a
+    shard runs it); returns how many run."""
+    from cosmic_ray.work_db import WorkDB, use_db
+    from cosmic_ray.work_item import WorkerOutcome, WorkResult
+
+    with use_db(str(db), WorkDB.Mode.open) as work_db:
+        pending = list(work_db.pending_work_items)
+        other = [i.job_id for i in pending if not in_shard(sample_key(i, tree), shard)]
+        work_db.set_multiple_results(other, WorkResult(output="another shard's",
+                                                       worker_outcome=WorkerOutcome.SKIPPED))
+    return len(pending) - len(other)
 
 
 def export_tree(dest: Path, rev: str) -> None:
@@ -105,13 +117,8 @@ def export_tree(dest: Path, rev: str) -> None:
     subprocess.run(["tar", "-x", "-C", str(dest)], input=archive, check=True)
 
 
-def sample_key(item, tree: Path) -> str:
-    """What ``in_sample`` hashes: the mutant's file (relative to the copy), operator and occurrence."""
-    return "|".join(f"{Path(m.module_path).relative_to(tree)}:{m.operator_name}:{m.occurrence}" for m in item.mutations)
-
-
 def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD", count_only: bool = False,
-               from_ledger: bool = False) -> dict:
+               from_ledger: bool = False, shard: tuple[int, int] | None = None) -> dict:
     from cosmic_ray.work_db import WorkDB, use_db
     from cosmic_ray.work_item import WorkerOutcome, WorkResult
 
@@ -127,12 +134,13 @@ def run_target(name: str, workdir: Path, sample: int | None, rev: str = "HEAD", 
     with use_db(str(db), WorkDB.Mode.open) as work_db:
         items = list(work_db.pending_work_items)
         keep = runnable(items)
-        chosen = {i.job_id for i in keep if in_sample(sample_key(i, tree), sample, len(keep))}
+        chosen = {i.job_id for i in keep
+                  if in_sample(sample_key(i, tree), sample, len(keep)) and in_shard(sample_key(i, tree), shard)}
         skipped = [i.job_id for i in items if i.job_id not in chosen]
         work_db.set_multiple_results(skipped, WorkResult(output="not in the plausible set or the sample",
                                                          worker_outcome=WorkerOutcome.SKIPPED))
     print(f"{name}: {len(items)} mutants, {len(keep)} plausible, {'would run' if count_only else 'running'} "
-          f"{len(chosen)}", flush=True)
+          f"{len(chosen)}{'' if shard is None else ' (shard %d/%d)' % shard}", flush=True)
     if from_ledger:
         print(f"{name}: from the ledger, {ledger.take(name, tree, db)}", flush=True)
     if count_only:
@@ -238,7 +246,7 @@ def _write_config(name: str, tree: Path, config: Path) -> str:
 
 
 def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = True, sample: int | None = None,
-                  from_ledger: bool = False) -> dict:
+                  from_ledger: bool = False, shard: tuple[int, int] | None = None) -> dict:
     """Continue the run of ``name`` in ``workdir`` (one that was stopped, or a sample to widen
     to every mutant, or to a larger ``sample``): the tree is exported again at ``rev`` — the
     tests as they are now, and no mutant left planted by a stopped run — and every plausible
@@ -263,9 +271,9 @@ def resume_target(name: str, workdir: Path, rev: str = "HEAD", widen: bool = Tru
     run_again(db, tree, widen, sample)
     if from_ledger:
         print(f"{name}: from the ledger, {ledger.take(name, tree, db)}", flush=True)
-    with use_db(str(db), WorkDB.Mode.open) as work_db:
-        pending = sum(1 for _ in work_db.pending_work_items)  # a stopped run's unfinished ones too
-    print(f"{name}: resuming in {tree}, {pending} mutants to run", flush=True)
+    pending = skip_other_shards(db, tree, shard)  # a stopped run's unfinished ones too
+    print(f"{name}: resuming in {tree}, {pending} mutants to run"
+          f"{'' if shard is None else ' (shard %d/%d)' % shard}", flush=True)
     prepare(name, tree, tests)
     _exec(config, db, tree)
     return report(name, tree, db)
@@ -397,6 +405,8 @@ def main(argv=None) -> int:
                    help="only count the mutants and time one run of the tests from a cold kernel cache")
     p.add_argument("--ledger", action="store_true",
                    help="take the kills and time-outs of tests/mutation/ledger/<target>.json on unchanged code")
+    p.add_argument("--shard", type=parse_shard, default=None, metavar="K/N",
+                   help="run only part K of N of the mutants (N runs in N work directories share the cores)")
     p.add_argument("--save-ledger", action="store_true",
                    help="merge the verdicts of the run in --workdir so far into the ledger, and stop")
     args = p.parse_args(argv)
@@ -411,9 +421,10 @@ def main(argv=None) -> int:
             save_ledger(n, workdir)
         return 0
     results = [resume_target(n, workdir, args.rev, widen=not args.survivors, sample=args.sample,
-                             from_ledger=args.ledger)
+                             from_ledger=args.ledger, shard=args.shard)
                if args.resume or args.survivors
-               else run_target(n, workdir, args.sample, args.rev, count_only=args.count, from_ledger=args.ledger)
+               else run_target(n, workdir, args.sample, args.rev, count_only=args.count, from_ledger=args.ledger,
+                               shard=args.shard)
                for n in names]
     print(f"\n{'target':<18} {'mutants':>8} {'killed':>7} {'t/o':>5} {'survived':>9} {'rate':>7}")
     for r in results:
