@@ -55,6 +55,8 @@ def test_jacobi_matches_numpy(seed):
     np.diag([1.0, 2.0, 3.0, 4.0]) + 0.3 * (np.eye(4, k=3) + np.eye(4, k=-3)),  # coupled to the last axis only
     np.array([[4.0, 0.0, 0.0, 1.0], [0.0, 3.0, 0.0, 0.5], [0.0, 0.0, 2.0, 0.25], [1.0, 0.5, 0.25, 1.0]]),
     np.array([[1.0, 0.5, 0.0, 0.0], [0.5, 1.5, 0.0, 0.0], [0.0, 0.0, 2.0, 0.0], [0.0, 0.0, 0.0, 3.0]]),  # θ = 0.5
+    # θ = 0: equal diagonal entries, as a link symmetric about an axis (I_xx = I_yy) gives
+    np.array([[2.0, 0.7, 0.0, 0.1], [0.7, 2.0, 0.0, 0.1], [0.0, 0.0, 3.0, 0.0], [0.1, 0.1, 0.0, 1.0]]),
 ])
 def test_jacobi_matches_numpy_on_sparse_couplings(M):
     A, V = M.copy(), np.zeros((4, 4))
