@@ -78,8 +78,8 @@ def parse_urdf(text: str | bytes, *, lock: dict[str, float] | None = None, flang
         name = _name(link, source)
         if name in links:
             raise ModelError(f"{source}: two links are named {name!r}")
-        links[name] = _link_params(link, source)
-    joints = [_parse_joint(j, source, lock) for j in root.findall("joint")]
+        links[name] = _in(f"{source}: link {name!r}", _link_params, link, source)
+    joints = [_in(f"{source}: joint {j.get('name')!r}", _parse_joint, j, source, lock) for j in root.findall("joint")]
     names = [j.name for j in joints]
     if len(set(names)) != len(names):
         raise ModelError(f"{source}: two joints are named {next(x for x in names if names.count(x) > 1)!r}")
@@ -176,6 +176,18 @@ def _name(element, source) -> str:
     return name
 
 
+class _BadNumber(ModelError):
+    """A number attribute that is none, without the file and element it is in (``_in`` adds them)."""
+
+
+def _in(where: str, parse, *args):
+    """``parse(*args)``, a bad number in it named with ``where`` (the file, the link or joint)."""
+    try:
+        return parse(*args)
+    except _BadNumber as e:
+        raise ModelError(f"{where}: {e}") from None
+
+
 def _floats(element, attr, count, default):
     text = element.get(attr) if element is not None else None
     if text is None:
@@ -185,7 +197,7 @@ def _floats(element, attr, count, default):
     except ValueError:
         values = np.array([np.nan])
     if values.shape != (count,) or not np.all(np.abs(values) <= _LARGEST):
-        raise ModelError(f"<{element.tag} {attr}={text!r}>: expected {count} numbers of magnitude ≤ {_LARGEST:g}")
+        raise _BadNumber(f"<{element.tag} {attr}={text!r}>: expected {count} numbers of magnitude ≤ {_LARGEST:g}")
     return values
 
 
@@ -199,7 +211,7 @@ def _float(element, attr, default, *, lo=-np.inf, unlimited=False) -> float:
     except ValueError:
         value = np.nan
     if np.isnan(value) or (abs(value) > _LARGEST and not unlimited) or value < lo:
-        raise ModelError(f"<{element.tag} {attr}={text!r}>: expected a number"
+        raise _BadNumber(f"<{element.tag} {attr}={text!r}>: expected a number"
                          f"{'' if unlimited else f' of magnitude ≤ {_LARGEST:g}'}{f' ≥ {lo:g}' if lo > -np.inf else ''}")
     return value
 

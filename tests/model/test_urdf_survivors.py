@@ -71,7 +71,7 @@ def test_a_number_that_is_no_number_is_refused_without_a_lower_bound_in_the_mess
     text = _chain(1, inertial='<inertial><mass value="1"/><inertia ixx="heavy" iyy="1" izz="1"/></inertial>')
     with pytest.raises(ModelError) as e:
         parse_urdf(text)
-    assert str(e.value) == "<inertia ixx='heavy'>: expected a number of magnitude ≤ 1e+06"
+    assert str(e.value) == "<urdf>: link 'l1': <inertia ixx='heavy'>: expected a number of magnitude ≤ 1e+06"
 
 
 def test_a_duplicated_joint_name_is_the_one_named():
@@ -172,3 +172,15 @@ def test_written_links_are_base_link_then_link1_to_linkN():
     root = ET.fromstring(parse_urdf(_chain(3)).to_urdf())
     assert [link.get("name") for link in root.findall("link")] == ["base_link", "link1", "link2", "link3",
                                                                     "flange", "tool"]
+
+
+def test_a_bad_number_names_the_file_and_the_joint(tmp_path):
+    from rtctl.model.urdf import load_urdf
+
+    links = "".join(f'<link name="l{i}"/>' for i in range(3))
+    joints = _joint("j0", "l0", "l1") + _joint("j1", "l1", "l2", extra=LIMIT.replace('upper="1"', 'upper="x"'))
+    path = tmp_path / "arm.urdf"
+    path.write_text(f'<robot name="t">{links}{joints}</robot>')
+    with pytest.raises(ModelError) as e:
+        load_urdf(path)
+    assert str(e.value) == f"{path}: joint 'j1': <limit upper='x'>: expected a number"
