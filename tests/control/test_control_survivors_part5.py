@@ -9,7 +9,7 @@ docstring (rtctl/control/leg_automaton.py, configs/leg_sim.toml):
   changed the state; ``leg_state`` is one value;
 * options: ``hysteresis`` on by default, a gate's ``hysteresis`` 0 by default, ``max_passes`` at
   least what the circuit needs (and exactly that is enough), a bad table named as such, exactly
-  one device and it a leg board.
+  one device and it a leg board, the devices given named in the error.
 """
 import math
 import sys
@@ -143,3 +143,11 @@ def test_constructed_directly_it_runs_every_tick_and_follows_no_reference(tmp_pa
     direct = LegAutomaton("leg", c.model, c.table, c.gates.copy(), semantics="guard")
     assert direct.divisor == 1 and not direct.follows_reference
     np.testing.assert_array_equal(direct.internals["leg_gates"], 0)
+
+
+@pytest.mark.parametrize("devices, named", [({}, "none"), ({"left": 0, "right": 1}, "left, right")])
+def test_binding_without_exactly_one_board_names_the_devices_given(tmp_path, devices, named):
+    board, c = _leg(tmp_path)
+    given = {k: board for k in devices}
+    with pytest.raises(TypeError, match=f"needs exactly one leg board in devices, got {named}$"):
+        c.bind(given)
