@@ -29,6 +29,8 @@ from rtctl.errors import ProtocolError, SettingsError
 from rtctl.hal.framegrabber import Frame, FrameGrabber, GrabberSettings, LoopClock
 from rtctl.vision.pixels import unpack
 
+CLAIM_ATTEMPTS = 3  # claims in one tick while the device reuses the slot under them; then nothing until the next
+
 
 class HostPort:
     """The host's end: program the registers, hold the newest frame, check and describe it."""
@@ -64,7 +66,7 @@ class HostPort:
         """Slot of a new newest frame now held, or NOTHING (never waits); ProtocolError when a
         word of the segment is invalid."""
         m = self.m
-        for _ in range(3):  # RACE: the device reused the slot while we looked; its newer frame is there
+        for _ in range(CLAIM_ATTEMPTS):  # RACE: the device reused the slot while we looked; its newer frame is there
             slot = host_claim(m.ident, self.expected, m.status, m.writer, m.reader, self.own, m.n_slots)
             if slot >= 0 or slot == NOTHING:
                 return slot

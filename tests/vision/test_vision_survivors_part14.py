@@ -2,7 +2,8 @@
 (docs/mutation/vision.md, part 14): ``locate``'s output is four float64 numbers, refused
 otherwise whatever its type (an ``and`` for an ``or`` let a float64 array of another shape
 through to the compiled centroid, which writes four elements); a header's field code that
-names no field is refused whatever the scan."""
+names no field is refused whatever the scan; a claim that loses every race to the device gives
+up after three attempts (docs/framegrabber.md)."""
 import numpy as np
 import pytest
 
@@ -34,3 +35,26 @@ def test_a_field_code_that_names_no_field_is_refused_for_every_scan(scan, code):
     memory.slot_headers[slot][F_FIELD] = code
     with pytest.raises(ProtocolError, match=f"field code {code}, scan '{scan}'"):
         host.take(0.0, 0)
+
+
+@pytest.mark.parametrize("races, taken", [(2, True), (3, False)])
+def test_a_claim_that_loses_every_race_gives_up_after_three_attempts(monkeypatch, races, taken):
+    """docs/framegrabber.md: the host claims at most three times in one tick while the device
+    reuses the slot under it, then takes nothing until the next tick (bounded time)."""
+    from drivers.protocols import framegrabber_host
+    from drivers.protocols.framegrabber import NOTHING, RACE
+
+    settings = GrabberSettings(density=64, scan="frame", word_bits=8)
+    memory, host, dev, gen, regs = programmed_pair(settings)
+    calls = []
+    claim = framegrabber_host.host_claim
+
+    def racing(*args):
+        calls.append(1)
+        return RACE if len(calls) <= races else claim(*args)
+
+    monkeypatch.setattr(framegrabber_host, "host_claim", racing)
+    dev.publish(dev.reserve(), 0, "frame", gen, regs, settings.frame_bytes)
+    slot = host.claim()
+    assert (slot >= 0) is taken and (taken or slot == NOTHING)
+    assert len(calls) == min(races + 1, 3)
