@@ -3,7 +3,8 @@
 otherwise whatever its type (an ``and`` for an ``or`` let a float64 array of another shape
 through to the compiled centroid, which writes four elements); a header's field code that
 names no field is refused whatever the scan; a claim that loses every race to the device gives
-up after three attempts (docs/framegrabber.md)."""
+up after three attempts (docs/framegrabber.md); ``locate`` takes a ``min_contrast`` of 1, and a
+box just past the image's top or bottom row finds nothing."""
 import numpy as np
 import pytest
 
@@ -58,3 +59,19 @@ def test_a_claim_that_loses_every_race_gives_up_after_three_attempts(monkeypatch
     slot = host.claim()
     assert (slot >= 0) is taken and (taken or slot == NOTHING)
     assert len(calls) == min(races + 1, 3)
+
+
+def test_locate_takes_a_min_contrast_of_one():
+    """min_contrast is in (0, 1] (a box from black to white at most): 1 is taken — and, as no
+    box can stand a full scale above its own mean, finds nothing."""
+    img = np.zeros((8, 8), dtype=np.uint8)
+    img[4, 4] = 255
+    assert locate(img, (4.0, 4.0), (2, 2), 256, 1.0, np.zeros(4)) is False
+
+
+@pytest.mark.parametrize("row", [-3.0, 10.0], ids=["above", "below"])
+def test_a_box_just_past_the_top_or_bottom_row_finds_nothing(row):
+    """A box of ±2 rows around row −3 ends at row −1 (and around row 10 of an 8-row image
+    starts at row 8): no row of the image, nothing found — not a division by an empty box."""
+    img = np.full((8, 8), 255, dtype=np.uint8)
+    assert locate(img, (row, 4.0), (2, 2), 256, 0.1, np.zeros(4)) is False
