@@ -4,7 +4,7 @@ otherwise whatever its type (an ``and`` for an ``or`` let a float64 array of ano
 through to the compiled centroid, which writes four elements); a header's field code that
 names no field is refused whatever the scan; a claim that loses every race to the device gives
 up after three attempts (docs/framegrabber.md); ``locate`` takes a ``min_contrast`` of 1, and a
-box just past the image's top or bottom row finds nothing."""
+box just past an edge of the image finds nothing."""
 import numpy as np
 import pytest
 
@@ -69,9 +69,12 @@ def test_locate_takes_a_min_contrast_of_one():
     assert locate(img, (4.0, 4.0), (2, 2), 256, 1.0, np.zeros(4)) is False
 
 
-@pytest.mark.parametrize("row", [-3.0, 10.0], ids=["above", "below"])
-def test_a_box_just_past_the_top_or_bottom_row_finds_nothing(row):
+@pytest.mark.parametrize("center", [(-3.0, 4.0), (10.0, 4.0), (4.0, -3.0), (4.0, 10.0)],
+                         ids=["above", "below", "left", "right"])
+def test_a_box_just_past_an_edge_of_the_image_finds_nothing(center):
     """A box of ±2 rows around row −3 ends at row −1 (and around row 10 of an 8-row image
-    starts at row 8): no row of the image, nothing found — not a division by an empty box."""
-    img = np.full((8, 8), 255, dtype=np.uint8)
-    assert locate(img, (row, 4.0), (2, 2), 256, 0.1, np.zeros(4)) is False
+    starts at row 8), and so for columns: no pixel of the image, nothing found — not a
+    division by an empty box."""
+    img = np.zeros((8, 8), dtype=np.uint8)
+    img[::2, ::2] = 255
+    assert locate(img, center, (2, 2), 256, 0.1, np.zeros(4)) is False
