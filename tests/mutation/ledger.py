@@ -55,17 +55,22 @@ def save(target: str, verdicts: dict[str, dict], codes: dict[str, str], rev: str
     return path
 
 
-def decided(target: str, tree: Path, folder: Path = FOLDER) -> dict[tuple[str, str, int], str]:
-    """(module, operator, occurrence) → "killed" or "timed_out", for every module of the ledger
-    whose code in ``tree`` is what its verdicts were measured on."""
+def recorded(target: str, tree: Path, folder: Path = FOLDER) -> dict[tuple[str, str, int], str]:
+    """(module, operator, occurrence) → "killed", "timed_out" or "survived", for every module of
+    the ledger whose code in ``tree`` is what its verdicts were measured on."""
     known = {}
     for module, entry in load(target, folder)["modules"].items():
         if code_hash(tree / module) != entry["code"]:
             continue
-        for verdict in ("killed", "timed_out"):
+        for verdict in VERDICTS:
             for operator, occurrences in entry[verdict].items():
                 known.update({(module, operator, o): verdict for o in occurrences})
     return known
+
+
+def decided(target: str, tree: Path, folder: Path = FOLDER) -> dict[tuple[str, str, int], str]:
+    """What a new run takes from the ledger: its kills and time-outs on unchanged code."""
+    return {k: v for k, v in recorded(target, tree, folder).items() if v != "survived"}
 
 
 def verdict(result) -> str | None:

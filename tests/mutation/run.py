@@ -407,6 +407,8 @@ def main(argv=None) -> int:
                    help="take the kills and time-outs of tests/mutation/ledger/<target>.json on unchanged code")
     p.add_argument("--shard", type=parse_shard, default=None, metavar="K/N",
                    help="run only part K of N of the mutants (N runs in N work directories share the cores)")
+    p.add_argument("--tally", action="store_true",
+                   help="print the target's figure at --rev from the ledger (every mutant's recorded verdict), and stop")
     p.add_argument("--save-ledger", action="store_true",
                    help="merge the verdicts of the run in --workdir so far into the ledger, and stop")
     args = p.parse_args(argv)
@@ -414,12 +416,20 @@ def main(argv=None) -> int:
         p.error("--resume, --survivors and --save-ledger need the run's --workdir")
     if args.survivors and args.sample is not None:
         p.error("--survivors keeps the run's own sample (--resume --sample N widens it to N)")
-    workdir = (args.workdir or Path(tempfile.mkdtemp(prefix="rtctl-mutation-"))).resolve()
     names = GROUPS.get(args.target, [args.target])
+    if args.tally:
+        from tally import describe, tally
+
+        for n in names:
+            counts, survivors = tally(n, args.rev)
+            print("\n".join([*survivors, describe(n, ledger.head(ROOT) if args.rev == "HEAD" else args.rev, counts)]))
+        return 0
+    workdir = (args.workdir or Path(tempfile.mkdtemp(prefix="rtctl-mutation-"))).resolve()
     if args.save_ledger:
         for n in names:
             save_ledger(n, workdir)
         return 0
+
     results = [resume_target(n, workdir, args.rev, widen=not args.survivors, sample=args.sample,
                              from_ledger=args.ledger, shard=args.shard)
                if args.resume or args.survivors

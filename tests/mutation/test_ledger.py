@@ -12,7 +12,7 @@ import pytest
 
 import ledger
 from renewal import record_code
-from run import run_again, runnable
+from run import run_again, runnable, skip_other_shards
 
 cosmic_ray = pytest.importorskip("cosmic_ray", reason="the mutation extra is not installed ('.[mutation]')")
 from cosmic_ray.work_db import WorkDB, use_db  # noqa: E402
@@ -173,3 +173,49 @@ def test_a_resumed_run_skips_an_earlier_runs_annotations_and_runs_its_other_surv
     assert all(verdicts[j].worker_outcome == WorkerOutcome.SKIPPED for j in verdicts if j not in gt)
     assert {j for j in verdicts if j not in gt} == {i.job_id for i in items(db)} - runnable_ids
     assert bit_or_lines(db, [i for i in items(db) if i.job_id in pending]) == {4: 1, 7: 1, 8: 1}
+
+
+def test_a_tally_gives_every_runnable_mutant_its_recorded_verdict_on_the_same_code(tmp_path, monkeypatch):
+    """``run.py T --tally``: two shards' runs saved into one ledger give the whole figure; a
+    module whose code changed since has no verdicts."""
+    import tally
+
+    folder = tmp_path / "ledger"
+    halves = []
+    for k, name in ((1, "a"), (2, "b")):  # two shards, each in its own work directory
+        db = init(tmp_path / name, MODULE)
+        run_again(db, tmp_path / name, widen=True, sample=None)  # (the implausible skipped, as a run does)
+        assert skip_other_shards(db, tmp_path / name, (k, 2)) > 0
+        finish_pending(db, {GT: "killed", "NumberReplacer": "timed_out"})
+        halves.append(ledger.save_run("scratch", tmp_path / name, "abc1234", folder)[1])
+
+    def scratch(source):
+        def export(tree, rev):
+            (tree / "pkg").mkdir()
+            (tree / "pkg" / "mod.py").write_text(source)
+
+        def configure(name, tree, config):
+            init(tree, source).rename(tree / "unused.sqlite")
+            (tree / "cr.toml").rename(config)
+        monkeypatch.setattr(tally, "export_tree", export)
+        monkeypatch.setattr(tally, "_write_config", configure)
+        return tally.tally("scratch", folder=folder)
+
+    counts, survivors = scratch(MODULE)
+    total = len(runnable(items(init(tmp_path / "c", MODULE))))
+    assert sum(counts.values()) == total and counts[tally.UNDECIDED] == 0
+    for verdict in ledger.VERDICTS:  # each mutant counted once, from whichever shard ran it
+        assert counts[verdict] == halves[0][verdict] + halves[1][verdict]
+    assert len(survivors) == counts["survived"] > 0 and all("pkg/mod.py:" in s for s in survivors)
+    counts, _ = scratch(MODULE.replace("x > 0", "x > 1"))
+    assert counts[tally.UNDECIDED] == sum(counts.values())
+
+
+def finish_pending(db: Path, outcome: dict[str, str]) -> None:
+    """``finish`` for the mutants still to run only (another shard's stay skipped)."""
+    with use_db(str(db), WorkDB.Mode.open) as work_db:
+        for item in list(work_db.pending_work_items):
+            v = outcome.get(item.mutations[0].operator_name.rsplit("/", 1)[-1], "survived")
+            work_db.set_result(item.job_id, WorkResult(
+                worker_outcome=WorkerOutcome.NORMAL, output="MUTATION-TIMED-OUT" if v == "timed_out" else "",
+                test_outcome=Outcome.SURVIVED if v == "survived" else Outcome.KILLED))
