@@ -40,7 +40,7 @@ TARGETS = {
               "tests/leg/test_logic_survivors_part9.py tests/leg/test_logic_survivors_part10.py "
               "tests/leg/test_logic_survivors_part11.py", 300),
     "vision": (["rtctl/vision", "drivers/protocols/framegrabber.py", "drivers/protocols/framegrabber_host.py"],
-               "tests/vision tests/hil/test_framegrabber_hil.py", 300),  # (with the daemon runs: 19 s; the HIL runs: 35 s)
+               "tests/vision tests/hil/test_framegrabber_hil.py tests/control/test_constructor_defaults.py", 300),  # (with the daemon runs: 19 s; the HIL runs: 35 s)
     "mcap": (["rtctl/telemetry/mcap_export.py", "rtctl/telemetry/channels.py"],  # (channels: shared with the live view)
              "tests/telemetry/test_mcap_export.py tests/telemetry/test_mcap_times_and_levels.py "
              "tests/telemetry/test_mcap_events_and_stamps.py tests/telemetry/test_mcap_channels.py "

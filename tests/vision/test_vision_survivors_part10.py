@@ -83,7 +83,7 @@ def test_a_released_frame_is_free_for_the_device():
     assert [dev.reserve() for _ in range(4)] == [0, 1, 3, -1]  # every slot but the published one
 
 
-@pytest.mark.parametrize("written, refused", [(2 ** 62 - 1, False), (2 ** 62, True)])
+@pytest.mark.parametrize("written, refused", [(2 ** 62 - 1, False), (2 ** 62, True), (0, False), (-1, True)])
 def test_a_count_word_stays_below_two_to_the_62(written, refused):
     memory = GrabberMemory(np.zeros(buffer_bytes(), dtype=np.uint8), create=True)
     memory.writer[W_WRITTEN] = written

@@ -4,7 +4,8 @@ otherwise whatever its type (an ``and`` for an ``or`` let a float64 array of ano
 through to the compiled centroid, which writes four elements); a header's field code that
 names no field is refused whatever the scan; a claim that loses every race to the device gives
 up after three attempts (docs/framegrabber.md); ``locate`` takes a ``min_contrast`` of 1, and a
-box just past an edge of the image finds nothing."""
+box just past an edge of the image finds nothing; a published slot never written holds no
+frame and is no error."""
 import numpy as np
 import pytest
 
@@ -78,3 +79,19 @@ def test_a_box_just_past_an_edge_of_the_image_finds_nothing(center):
     img = np.zeros((8, 8), dtype=np.uint8)
     img[::2, ::2] = 255
     assert locate(img, center, (2, 2), 256, 0.1, np.zeros(4)) is False
+
+
+def test_a_published_slot_never_written_is_no_frame_and_no_error():
+    """A published slot whose sequence number is 0 ("never written", as an abandoned slot is
+    marked) holds no frame: nothing is taken — not a sequence number gone back, once frames
+    have been taken."""
+    from drivers.protocols.framegrabber import W_PUBLISHED, W_SEQ0
+
+    settings = GrabberSettings(density=64, scan="frame", word_bits=8)
+    memory, host, dev, gen, regs = programmed_pair(settings)
+    dev.publish(dev.reserve(), 0, "frame", gen, regs, settings.frame_bytes)
+    assert host.take(0.0, 0) is not None
+    slot = dev.reserve()
+    memory.writer[W_SEQ0 + slot] = 0
+    memory.writer[W_PUBLISHED] = slot
+    assert host.take(0.0, 0) is None
