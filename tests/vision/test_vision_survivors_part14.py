@@ -5,7 +5,8 @@ through to the compiled centroid, which writes four elements); a header's field 
 names no field is refused whatever the scan; a claim that loses every race to the device gives
 up after three attempts (docs/framegrabber.md); ``locate`` takes a ``min_contrast`` of 1, and a
 box just past an edge of the image finds nothing; a published slot never written holds no
-frame and is no error."""
+frame and is no error; a camera that looks at its own position is a configuration error
+naming ``look_at``."""
 import numpy as np
 import pytest
 
@@ -95,3 +96,14 @@ def test_a_published_slot_never_written_is_no_frame_and_no_error():
     memory.writer[W_SEQ0 + slot] = 0
     memory.writer[W_PUBLISHED] = slot
     assert host.take(0.0, 0) is None
+
+
+def test_a_camera_looking_at_its_own_position_is_a_configuration_error_naming_look_at():
+    from rtctl.errors import ConfigError
+    from rtctl.tomltable import Table
+    from rtctl.vision.camera import Camera
+
+    place = {"position": [1.0, 0.5, 2.0], "look_at": [1.0, 0.5, 2.0]}
+    with pytest.raises(ConfigError) as e:
+        Camera.from_table(Table(place, "cell.toml", "camera"))
+    assert e.value.key_path.endswith("look_at") and "cell.toml" in str(e.value)
