@@ -87,7 +87,8 @@ def _fence(typingctx):
 @njit(cache=True)
 def _reserve(writer, reader, n_slots, start):
     """Device: a slot to write (marked BUSY) that is neither published, held nor claimed, nor
-    BUSY already (an image still in transfer); −1 if none."""
+    BUSY already (an image still in transfer); −1 if none. The search goes up from ``start``
+    round the ring (the device passes the slot after its last one: it writes the slots in turn)."""
     published = writer[W_PUBLISHED]
     for k in range(2 * n_slots):
         s = (start + k) % n_slots

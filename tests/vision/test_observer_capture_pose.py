@@ -59,3 +59,24 @@ def test_no_marker_in_a_bright_box_of_low_contrast_and_one_in_a_dark_box():
     dark[9:12, 9:12] = 230
     assert locate(dark, (10.0, 10.0), (10, 10), 256, 0.2, out)
     np.testing.assert_allclose(out[:2], [10.0, 10.0])  # the blob's centre
+
+
+def test_an_image_captured_at_a_ticks_own_time_gets_that_ticks_positions_exactly():
+    """In lock-step a capture is stamped with a tick's time: the pose is that tick's measured
+    positions, bit for bit — not an interpolation that ends on it (q_k − q_{k−1}) · 1 + q_{k−1},
+    which rounds."""
+    from rtctl.vision.observer import MarkerObserver
+
+    observer = MarkerObserver("marker", load_robot(PUMA), CAMERA)
+    observer.grabber = _NoImage()
+    state, ref, command = JointState(6), Reference(6), JointCommand(6)
+    state.position[:] = READY
+    observer.reset(state)
+    # (rows of alternating magnitude: there the difference rounds, and adding back does not undo it)
+    rows = np.random.default_rng(4).uniform(-2.0, 2.0, (8, 6)) * np.where(np.arange(8)[:, None] % 2, 1e-3, 1.0)
+    for k, q in enumerate(rows):
+        state.position[:] = q
+        observer.update(k * 0.004, state, ref, command)
+    for k in range(1, 7):
+        observer._positions_at(k * 0.004)
+        np.testing.assert_array_equal(observer._q_at, rows[k])

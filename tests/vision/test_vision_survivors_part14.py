@@ -6,7 +6,7 @@ names no field is refused whatever the scan; a claim that loses every race to th
 up after three attempts (docs/framegrabber.md); ``locate`` takes a ``min_contrast`` of 1, and a
 box just past an edge of the image finds nothing; a published slot never written holds no
 frame and is no error; a camera that looks at its own position is a configuration error
-naming ``look_at``."""
+naming ``look_at``; the device writes the slots in turn, going up round the ring."""
 import numpy as np
 import pytest
 
@@ -107,3 +107,16 @@ def test_a_camera_looking_at_its_own_position_is_a_configuration_error_naming_lo
     with pytest.raises(ConfigError) as e:
         Camera.from_table(Table(place, "cell.toml", "camera"))
     assert e.value.key_path.endswith("look_at") and "cell.toml" in str(e.value)
+
+
+def test_the_device_writes_the_slots_in_turn_going_up_past_those_it_cannot_take():
+    """From the slot after its last one, the search goes up round the ring: with slot 2
+    published it takes 3 (not 1), and from 3 it wraps to 0."""
+    from drivers.protocols.framegrabber import W_PUBLISHED, DevicePort, GrabberMemory, buffer_bytes
+
+    memory = GrabberMemory(np.zeros(buffer_bytes(), dtype=np.uint8), create=True)
+    dev = DevicePort(memory)
+    memory.writer[W_PUBLISHED] = 2
+    dev._next = 2
+    assert dev.reserve() == 3
+    assert dev.reserve() == 0  # (3 is BUSY now: the search wraps)
