@@ -6,7 +6,9 @@ names no field is refused whatever the scan; a claim that loses every race to th
 up after three attempts (docs/framegrabber.md); ``locate`` takes a ``min_contrast`` of 1, and a
 box just past an edge of the image finds nothing; a published slot never written holds no
 frame and is no error; a camera that looks at its own position is a configuration error
-naming ``look_at``; the device writes the slots in turn, going up round the ring."""
+naming ``look_at``; the device writes the slots in turn, going up round the ring; the observer
+binds to exactly one framegrabber in-process (before, only the daemon's runs in a subprocess
+showed it); any positive focal length is taken; packed words in three dimensions are refused."""
 import numpy as np
 import pytest
 
@@ -120,3 +122,39 @@ def test_the_device_writes_the_slots_in_turn_going_up_past_those_it_cannot_take(
     dev._next = 2
     assert dev.reserve() == 3
     assert dev.reserve() == 0  # (3 is BUSY now: the search wraps)
+
+
+@pytest.mark.parametrize("devices, bound", [({"cam": "grabber"}, True), ({"cam": "grabber", "other": "grabber"}, False),
+                                            ({"cam": "other"}, False)])
+def test_an_observer_binds_to_exactly_one_framegrabber_and_nothing_else(devices, bound):
+    from rtctl.model import load_robot
+    from rtctl.vision.observer import MarkerObserver
+    from runtime_helpers import PUMA
+    from vision_rig import CAMERA, NthPoll
+
+    grabber = NthPoll(1)
+    given = {name: grabber if kind == "grabber" else object() for name, kind in devices.items()}
+    observer = MarkerObserver("marker", load_robot(PUMA), CAMERA)
+    if bound:
+        observer.bind(given)
+        assert observer.grabber is grabber
+    else:
+        with pytest.raises(ValueError, match="exactly one framegrabber device"):
+            observer.bind(given)
+
+
+@pytest.mark.parametrize("focal_px", [1.0, 0.5])
+def test_any_positive_focal_length_is_taken(focal_px):
+    from rtctl.vision.camera import Camera
+
+    camera = Camera.looking_at([1.0, 0.5, 2.0], [0.0, 0.0, 0.0], focal_px)
+    assert camera.focal_px == focal_px
+
+
+def test_packed_words_in_three_dimensions_are_refused():
+    from rtctl.vision.pixels import pack, unpack
+
+    with pytest.raises(ValueError, match="2-D array"):
+        unpack(np.zeros((2, 4, 1), dtype=np.uint8), 8, np.zeros((2, 4), dtype=np.uint8))
+    with pytest.raises(ValueError, match="2-D array"):
+        pack(np.zeros((2, 8), dtype=np.uint8), 1, 8, out=np.zeros((2, 1, 1), dtype=np.uint8))
