@@ -25,12 +25,11 @@ import numpy as np
 
 from drivers.protocols.framegrabber import DONE, FAULT, IDLE, RUNNING, S_FIELDS, S_HEARTBEAT, DevicePort, decode
 from rtctl.errors import SettingsError
-from rtctl.hal.framegrabber import FIELD_PERIOD_S, MEMORY_BYTES
+from rtctl.hal.framegrabber import FIELD_NS, MEMORY_BYTES
 from rtctl.vision.pixels import _digitise_pack  # (the image's shapes are checked once, by its settings)
 from hil_sim.render import Renderer
 from hil_sim.transfer import PAPER_MB_S, TransferChannel
 
-FIELD_NS = round(FIELD_PERIOD_S * 1e9)
 FIRST_FIELD = {"odd": "odd", "even": "even", "fields": None, "frame": "odd"}
 
 

@@ -31,9 +31,8 @@ import math
 
 import numpy as np
 
-from rtctl.hal.framegrabber import FIELD_PERIOD_S, GrabberSettings
+from rtctl.hal.framegrabber import FIELD_NS, GrabberSettings
 
-FIELD_NS = round(FIELD_PERIOD_S * 1e9)
 LINE_NS = 64_000  # PAL line period
 PICTURE_LINES = 288  # picture lines a field (625-line PAL: 576 a frame); the rest of the 312.5 is blanking
 PICTURE_NS = PICTURE_LINES * LINE_NS  # 18.432 ms

@@ -36,7 +36,7 @@ from numba import njit, types
 from numba.extending import intrinsic
 
 from rtctl.errors import ProtocolError
-from rtctl.hal.framegrabber import FIELD_PERIOD_S, MEMORY_BYTES, SCANS, GrabberSettings
+from rtctl.hal.framegrabber import FIELD_NS, MEMORY_BYTES, SCANS, GrabberSettings
 
 MAGIC = b"RTCTLFG1"
 VERSION = 2  # 2: the vertical density register (the 16 modes)
@@ -50,7 +50,6 @@ FIELD_CODES = {name: code for code, name in enumerate(FIELD_NAMES)}
 BUSY = -1  # slot_seq while the device writes the slot; 0 = never written
 STATE_NAMES = ("idle", "running", "done", "fault")
 SCAN_FIELDS = {"odd": (1,), "even": (2,), "fields": (1, 2), "frame": (0,)}  # the field codes each scan delivers
-FIELD_NS = round(FIELD_PERIOD_S * 1e9)
 MAX_SKIP = 1 << 20  # frames a device can complete between two polls: far more than any camera does
 MAX_COUNT = 1 << 62  # sequence numbers and generations stay below it (no int64 overflow)
 CAPTURE_SLACK_NS = 1_000_000  # a CLOCK_MONOTONIC stamp may lead the host's "now", read before the claim

@@ -27,6 +27,7 @@ LEVELS = {2: 1, 4: 2, 16: 4, 256: 8}  # grey levels → bits per pixel
 WORD_BITS = (8, 16, 32)  # the parallel output's word
 MEMORY_BYTES = 256 * 1024  # on-board RAM: what one N-shot burst must fit
 FIELD_PERIOD_S = 0.020  # PAL: a field every 20 ms, a frame (two fields) every 40 ms
+FIELD_NS = round(FIELD_PERIOD_S * 1e9)
 UNITY_GAIN = 128  # gain register value of a ×1 amplifier (factor 2^((gain − 128)/64))
 
 
