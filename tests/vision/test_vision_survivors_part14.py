@@ -8,7 +8,8 @@ box just past an edge of the image finds nothing; a published slot never written
 frame and is no error; a camera that looks at its own position is a configuration error
 naming ``look_at``; the device writes the slots in turn, going up round the ring; the observer
 binds to exactly one framegrabber in-process (before, only the daemon's runs in a subprocess
-showed it); any positive focal length is taken; packed words in three dimensions are refused."""
+showed it); any positive focal length is taken; packed words in three dimensions, or of a shape
+that does not hold the image in its rows or its width alone, are refused."""
 import numpy as np
 import pytest
 
@@ -158,3 +159,13 @@ def test_packed_words_in_three_dimensions_are_refused():
         unpack(np.zeros((2, 4, 1), dtype=np.uint8), 8, np.zeros((2, 4), dtype=np.uint8))
     with pytest.raises(ValueError, match="2-D array"):
         pack(np.zeros((2, 8), dtype=np.uint8), 1, 8, out=np.zeros((2, 1, 1), dtype=np.uint8))
+
+
+@pytest.mark.parametrize("rows, words_per_row", [(2, 2), (3, 1), (1, 1)], ids=["wider", "more-rows", "fewer-rows"])
+def test_packed_words_that_do_not_hold_the_image_are_refused(rows, words_per_row):
+    """Two rows of 32 one-bit pixels are 2 × 1 words of 32 bits: any other shape — wrong in its
+    rows or its width alone — is refused before the compiled loop reads past the image."""
+    from rtctl.vision.pixels import digitise_pack
+
+    with pytest.raises(ValueError, match="do not hold"):
+        digitise_pack(np.zeros((2, 32), dtype=np.float32), 0, 1.0, 2, np.zeros((rows, words_per_row), dtype=np.uint32))
