@@ -9,12 +9,14 @@ laid out as (all integers little-endian int64)::
            (clock: 0 = capture times on CLOCK_MONOTONIC, 1 = on the loop's clock, lock-step)
     128    REGISTERS (host → device): gen, density (horizontal), density_v, x, y, width, height, scan,
            offset, gain, levels, word_bits, shots, trigger      — a sequence lock: gen odd while written
+           (scan: 0 odd, 1 even, 2 fields, 3 frame)
     256    STATUS (device → host): state, applied_gen, error, fields, heartbeat_ns
     384    WRITER (device only): published slot, written, slot_seq[n_slots]
            (slot_seq: −1 while the device writes the slot, 0 never written or given back)
     640    READER (host only):  claim, hold, read, dropped, last_seq
     4096   slot s at 4096 + s · slot_stride: header (seq, capture_ns, field, gen, nbytes,
            then the 13 registers the frame was taken with), packed words from byte 256
+           (field: 0 a frame, 1 odd, 2 even)
 
 **Arbitration** (ownership handed over, never shared): the device writes a frame into a slot
 it has *reserved*, and publishes it when complete; the host *holds* the slot of the frame it
