@@ -77,6 +77,6 @@ def test_an_image_captured_at_a_ticks_own_time_gets_that_ticks_positions_exactly
     for k, q in enumerate(rows):
         state.position[:] = q
         observer.update(k * 0.004, state, ref, command)
-    for k in range(1, 7):
+    for k in range(1, 8):  # (row 7 the newest)
         observer._positions_at(k * 0.004)
         np.testing.assert_array_equal(observer._q_at, rows[k])
