@@ -429,7 +429,6 @@ def main(argv=None) -> int:
         for n in names:
             save_ledger(n, workdir)
         return 0
-
     results = [resume_target(n, workdir, args.rev, widen=not args.survivors, sample=args.sample,
                              from_ledger=args.ledger, shard=args.shard)
                if args.resume or args.survivors
