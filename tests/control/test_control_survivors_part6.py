@@ -26,7 +26,7 @@ def test_the_telemetrys_noise_statistics_are_the_filters():
     n = cfg.model.nq
     y0 = cfg.sim.vector("initial_q", n)
     state, ref, cmd = JointState(n), Reference(n), JointCommand(n)
-    state.position[:] = ref.q[:] = y0
+    state.position[:] = y0
     ref.q[:] = y0 + 2e-3
     c.reset(state)
     eps = []
