@@ -76,7 +76,8 @@ class CircuitModel:
     @classmethod
     def from_pla(cls, pla: Pla, n_gates: int, n_bits: int, max_passes: int = DEFAULT_MAX_PASSES) -> "CircuitModel":
         """Inputs: n_gates gates then Q1…Qb; outputs J1 K1 … Jb Kb (any order, by name) and the
-        actuator bits (the other outputs, in order)."""
+        actuator bits (the other outputs, in order): at most 62 outputs in all, bits 0–61 of
+        one int64 word."""
         if len(pla.inputs) != n_gates + n_bits:
             raise ValueError(f"a PLA with {n_gates} gate and {n_bits} state inputs, got {len(pla.inputs)} inputs")
         if max_passes < 1:

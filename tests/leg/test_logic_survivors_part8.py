@@ -329,8 +329,9 @@ def test_a_settle_that_runs_out_of_passes_keeps_the_last_passs_state():
 
 
 def test_an_output_word_must_fit_an_int64():
-    """The output word, J1…Jb K1…Kb then the actuators, is an int64: a 62-bit word (1 flip-flop,
-    60 actuators) fits; a 64-bit one (4 flip-flops, 56 actuators) is refused by its message."""
+    """The output word, J1…Jb K1…Kb then the actuators, is an int64 of at most 62 outputs
+    (CircuitModel.from_pla): a 62-bit word (1 flip-flop, 60 actuators) fits; 63 bits (61
+    actuators) and 64 (4 flip-flops, 56 actuators) are refused by their message."""
     model = CircuitModel.from_pla(_toggle_pla(60), n_gates=2, n_bits=1)
     assert model.n_actuators == 60
     emu = Emulator(model)
@@ -338,6 +339,8 @@ def test_an_output_word_must_fit_an_int64():
     assert emu.actuators == (1 << 60) - 1  # every actuator is Q1
     with pytest.raises(ValueError, match="too many outputs for one word"):
         CircuitModel.from_pla(_toggle_pla(56, n_bits=4), n_gates=2, n_bits=4)
+    with pytest.raises(ValueError, match="too many outputs for one word"):
+        CircuitModel.from_pla(_toggle_pla(61), n_gates=2, n_bits=1)
 
 
 # -- the search result -----------------------------------------------------------------------
