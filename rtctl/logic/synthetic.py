@@ -7,7 +7,8 @@ of state s are s's low four bits (a Moore output). Three shapes of cycle:
 * ``chain``: 1 → 2 → … → n → 1, each state left one way (the sparsest cyclic table);
 * ``star``: 1 → 2 → 1 → 3 → 1 → … → n → 1, the leg table's shape (state 1 is left n − 1
   ways): the hub needs more neighbours than a code has, so transitions need routes;
-* ``random``: a tour of all states in random order, then random jumps (``seed``), 3n rows;
+* ``random``: a tour of all states in random order, then random jumps (``seed``, 0 unless
+  given: the bench's tables are the same in every run), 3n rows;
 * ``complete``: every state left for every other, once each (an Eulerian circuit of the
   complete graph, n(n − 1) rows): the most transitions n states can have, no assignment
   without routes, and the largest functions for the minimiser.
