@@ -116,8 +116,8 @@ class VmStall(Exception):
 def stall_in(summary: dict) -> str | None:
     """What in the run's own record shows a stall of this (shared, virtual) machine: an
     overrun of the loop, a wake-up later than half a period, or replies the simulator's process
-    did not send in time (the CAN drives' missing replies, the leg board's late ones). None when
-    the run was quiet."""
+    did not send in time (the CAN drives' missing replies, the leg board's late ones), or
+    telemetry rows the recorder dropped because its writer fell behind. None when the run was quiet."""
     timing = summary["timing"]
     late_us = (timing.get("wake_lateness_us") or {}).get("max") or 0.0
     devices = summary.get("devices", {}).values()
@@ -129,6 +129,8 @@ def stall_in(summary: dict) -> str | None:
         signs.append(f"a wake-up {late_us:.0f} µs late")
     if missing:
         signs.append(f"{missing} missing or late repl(ies)")
+    if (dropped := (summary.get("telemetry") or {}).get("dropped_rows")):
+        signs.append(f"{dropped} telemetry row(s) dropped")
     return ", ".join(signs) or None
 
 

@@ -5,9 +5,11 @@ Stated bounds (loose: the machine is shared): over 2 s, fields arrive at 50 Hz �
 frames at 25 Hz ± 10 % (the rate of arrivals at the host); the intervals between capture
 stamps are whole fields — 20 ms (fields) or 40 ms (frames) — give or take the camera
 thread's late wake-ups (≤ 5 ms), a skipped field at most 1 in 10; the latency from capture to
-the host is a field (20 ms) or a frame (40 ms), median within −5 … +5 ms. Nothing is dropped by a host polling every millisecond. A bound missed while the
-record shows the machine stalled (the camera skipped fields, or the host's polling paused for
-a field or more) is a VmStall, retried like the other HIL tests'.
+the host is a field (20 ms) or a frame (40 ms), median within −5 … +5 ms. Nothing is dropped
+by a host polling every millisecond. A bound missed while the record shows the machine stalled
+is a VmStall, retried like the other HIL tests': the camera skipped fields or woke later than
+its 5 ms, or the host's polling paused longer than an image less those 5 ms (two images, the
+first written late and the next on time, can then complete between two reads: a drop).
 """
 import time
 
@@ -19,6 +21,7 @@ from hil_helpers import CONFIGS, VmStall
 from rtctl.hal.framegrabber import GrabberSettings
 
 pytestmark = pytest.mark.hil
+CAMERA_LATE_S = 0.005  # the camera thread's wake-up lateness this file states (module docstring)
 
 
 def _collect(grabber, t0, seconds):
@@ -54,9 +57,10 @@ def test_free_running_fields_and_frames_at_the_pal_rate(hil_sim, scan, rate_hz, 
     exit_event = sim.stop()
     camera = exit_event["framegrabbers"]["camera"]
     assert camera["images"] >= counts["frames"] and camera["settings_errors"] == 0
+    steps = np.diff(captures) / (1 / rate_hz)
+    camera_late = float(np.max(np.abs(steps - np.round(steps)), initial=0.0)) / rate_hz
     try:
-        steps = np.diff(captures) / (1 / rate_hz)
-        np.testing.assert_allclose(steps, np.round(steps), atol=0.005 * rate_hz)  # whole images, ± 5 ms
+        np.testing.assert_allclose(steps, np.round(steps), atol=CAMERA_LATE_S * rate_hz)  # whole images, ± 5 ms
         assert set(fields) == ({"odd", "even"} if scan == "fields" else {"frame"})
         n = arrivals.size
         assert n >= 0.9 * 2.0 * rate_hz
@@ -67,9 +71,9 @@ def test_free_running_fields_and_frames_at_the_pal_rate(hil_sim, scan, rate_hz, 
         assert latency_s - 0.005 <= np.median(latency) <= latency_s + 0.005
         assert counts["dropped"] == 0
     except AssertionError as e:
-        if camera["missed_fields"] or poll_gap > 0.020:
-            raise VmStall(f"machine stall (camera missed {camera['missed_fields']} fields, host paused "
-                          f"{poll_gap * 1e3:.0f} ms): {e}") from e
+        if camera["missed_fields"] or camera_late > CAMERA_LATE_S or poll_gap > 1 / rate_hz - CAMERA_LATE_S:
+            raise VmStall(f"machine stall (camera missed {camera['missed_fields']} fields, woke up to "
+                          f"{camera_late * 1e3:.1f} ms late; host paused {poll_gap * 1e3:.0f} ms): {e}") from e
         raise
     print(f"{scan}: {measured_hz:.2f} Hz, latency median {np.median(latency) * 1e3:.1f} ms, "
           f"p90 {np.percentile(latency, 90) * 1e3:.1f} ms, {n} images, skipped {np.mean(np.round(steps) > 1):.0%}")
@@ -116,7 +120,8 @@ def test_marker_observed_in_a_run_against_hil_sim(hil_sim, tmp_path):
     sim.stop()
     camera = summary["devices"]["camera"]
     seq = tel["marker_seq"]
-    first = np.unique(seq, return_index=True)[1][1:]
+    numbers, first = np.unique(seq, return_index=True)
+    first = first[numbers > 0]  # (0: no image yet; the device numbers its images from 1)
     with unless_stalled(summary):  # a stalled loop may end before any field: say so, not IndexError
         assert len(first) >= 3, (f"{len(first)} fields observed in {len(seq)} ticks, exit {code} "
                                  f"({summary['stop_reason']})", err[-2000:])
@@ -129,7 +134,9 @@ def test_marker_observed_in_a_run_against_hil_sim(hil_sim, tmp_path):
     print(f"HIL: {camera['frames']} images, {camera['dropped']} dropped, marker RMS {rms:.2f} px; the camera "
           f"matches the loop's joints {lag * 1e3:+.1f} ms later, then RMS {rms_shifted:.2f} px")
     assert camera["device"]["state"] == "running" and camera["device"]["settings_errors"] == 0
-    assert not np.isnan(error).any() and len(first) == camera["frames"]
+    assert not np.isnan(error).any()
+    with unless_stalled(summary):  # (a stalled writer drops telemetry rows: an image's rows with them)
+        assert len(first) == camera["frames"]
     # every image the device completed while the loop ran was taken or counted dropped (a
     # stalled loop drops): only those completed after the loop's last read are in neither
     written = camera["device"]["written"]

@@ -12,10 +12,11 @@ def test_variant_sets_existing_keys_and_refuses_missing_ones(tmp_path):
         variant(tmp_path, "three_joint_slcan.toml", no_such_key=1)
 
 
-def summary(overruns=0, late_us=10.0, missing=0, late_replies=0):
+def summary(overruns=0, late_us=10.0, missing=0, late_replies=0, dropped_rows=0):
     return {"timing": {"overruns": overruns, "period_us": 2000.0, "wake_lateness_us": {"max": late_us}},
             "devices": {"arm": {"counters": {"missing_replies": missing}}, "other": {},
-                        "board": {"late_replies": late_replies}}}  # (the leg board's counts are not nested)
+                        "board": {"late_replies": late_replies}},  # (the leg board's counts are not nested)
+            "telemetry": {"rows": 1500, "dropped_rows": dropped_rows}}
 
 
 @pytest.mark.parametrize("run, stalled", [
@@ -25,6 +26,8 @@ def summary(overruns=0, late_us=10.0, missing=0, late_replies=0):
     (summary(late_us=1500.0), "a wake-up 1500 µs late"),
     (summary(missing=3), "3 missing or late repl(ies)"),
     (summary(late_replies=8), "8 missing or late repl(ies)"),  # the MuJoCo leg's simulator starved (CI, 2026-12-04)
+    (summary(dropped_rows=40), "40 telemetry row(s) dropped"),  # (its rows can hold an image's every row)
+    (summary(overruns=1, dropped_rows=2), "1 overrun(s), 2 telemetry row(s) dropped"),
 ])
 def test_a_stall_is_read_from_the_runs_own_record(run, stalled):
     assert stall_in(run) == stalled

@@ -13,6 +13,12 @@ first (:func:`selection.fastest_first`), as the first failure ends the run.
 ``MUTATION_MODE=full`` (the second pass, for every survivor of the first): the target's full
 tests from an empty cache, as a run without this tool would do. A survivor counts only here.
 
+A failure counts as a kill only when it reproduces (:func:`confirmed_status`): the first failed
+test alone again, and if it passes, all the tests once more. A test that a loaded machine can fail
+(a real-time bound, a frame count) would otherwise kill an equivalent mutant now and then — the
+second pass runs the HIL tests while another shard loads the other core — and the kill rate
+would read better than the tests are.
+
 A mutant's tests get :func:`time_limit` of the unmutated run's time (which ran them all, from
 an empty cache, under coverage): a mutant that loops forever is a time-out after about two
 minutes instead of cosmic-ray's per-target limit of four to ten. The whole process group is
@@ -23,10 +29,12 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 import traceback
 from pathlib import Path
@@ -45,6 +53,7 @@ def digest(path: Path) -> str:
 
 TOOL_ERROR = "MUTATION-TOOL-ERROR"  # (run.py stops on it: a crash of this tool must not count as a kill)
 TIMED_OUT = "MUTATION-TIMED-OUT"  # (run.py counts it as a time-out, not as a kill by a test)
+NOT_REPRODUCED = "MUTATION-NOT-REPRODUCED"  # (a failure that did not happen again: not a kill by itself)
 
 
 def time_limit(baseline_s: float) -> float:
@@ -61,14 +70,19 @@ def _stop(signum, frame):
     raise Stopped(signal.Signals(signum).name)
 
 
-def run_tests(argv: list[str], limit_s: float) -> int:
+def run_tests(argv: list[str], limit_s: float, output: list[str] | None = None) -> int:
     """pytest's exit status; at ``limit_s`` its process group is killed and it is a time-out (1).
     A stop signal kills the group too and raises :class:`Stopped`: pytest runs in a session of
-    its own (its daemons with it), which a signal to the run's process group does not reach."""
-    proc = subprocess.Popen(argv, start_new_session=True)
+    its own (its daemons with it), which a signal to the run's process group does not reach.
+    Its output goes to this process's (cosmic-ray keeps it), and its lines to ``output`` if given."""
+    proc = subprocess.Popen(argv, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    echo = threading.Thread(target=_echo, args=(proc.stdout, output if output is not None else []), daemon=True)
+    echo.start()
     previous = {s: signal.signal(s, _stop) for s in (signal.SIGTERM, signal.SIGHUP, signal.SIGINT)}
     try:
-        return proc.wait(timeout=limit_s)
+        rc = proc.wait(timeout=limit_s)
+        echo.join(timeout=10.0)  # (a daemon that left pytest's session may hold the pipe open)
+        return rc
     except subprocess.TimeoutExpired:
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
@@ -81,6 +95,39 @@ def run_tests(argv: list[str], limit_s: float) -> int:
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
+
+
+def _echo(stream, lines: list[str]) -> None:
+    for line in stream:
+        sys.stdout.write(line)
+        lines.append(line.rstrip("\n"))
+    sys.stdout.flush()
+
+
+_FAILURE = re.compile(r"(?:FAILED|ERROR) (\S+?)(?: - .*)?$")  # pytest's short summary: "FAILED tests/a.py::t[x] - msg"
+
+
+def first_failure(lines: list[str]) -> str | None:
+    """The node id of the first failed test in pytest's short summary (``-r fE``, its default)."""
+    for line in lines:
+        if (found := _FAILURE.match(line)) is not None and "::" in found.group(1):
+            return found.group(1)
+    return None
+
+
+def confirmed_status(argv: list[str], limit_s: float, run=run_tests) -> tuple[int, str | None]:
+    """pytest's exit status for ``argv``, a failure of a test confirmed: that test fails again
+    alone (1, "reproduced"), or else all of ``argv`` run once more decide ("not reproduced").
+    → (status, None) for a pass, a time-out, or a failure that names no test (a collection error)."""
+    output: list[str] = []
+    rc = run(argv, limit_s, output)
+    failing = first_failure(output) if rc == 1 else None
+    if failing is None:
+        return rc, None
+    if run(PYTEST + [failing], limit_s) == 1:
+        return 1, "reproduced"
+    print(f"{NOT_REPRODUCED}: {failing} passed when run again alone; all the tests once more", flush=True)
+    return run(argv, limit_s), "not reproduced"
 
 
 def link_warm(warm: Path, dest: Path, reuse=None) -> int:
@@ -154,13 +201,13 @@ def run() -> int:
     print(f"mutant in {rel}: {'all' if selected is None else len(selected)} tests, "
           f"{warm} kernel cache ({'full' if full else 'fast'} pass)", flush=True)
     limit = time_limit(state["seconds"])
-    rc = run_tests(argv, limit)
+    rc, failure = confirmed_status(argv, limit)
     if selected is not None and rc in (4, 5):  # (a test id pytest could not find again: all of them)
         selected = None
-        rc = run_tests(PYTEST + state["tests"].split(), limit)
+        rc, failure = confirmed_status(PYTEST + state["tests"].split(), limit)
     with open(HERE / "log.jsonl", "a") as log:
         log.write(json.dumps({"file": rel, "pass": "full" if full else "fast", "warm": warm,
-                              "tests": None if selected is None else len(selected), "rc": rc,
+                              "tests": None if selected is None else len(selected), "rc": rc, "failure": failure,
                               "seconds": round(time.monotonic() - started, 2)}) + "\n")
     return rc
 
