@@ -16,7 +16,7 @@ from pathlib import Path
 def test_passes():
     pass
 
-def test_fails_the_first_time(tmp_path_factory):
+def test_fails_the_first_time():
     marker = Path(__file__).with_name("failed_once")
     if not marker.exists():
         marker.write_text("")
