@@ -1,0 +1,76 @@
+"""Tests for control mutants that survived the fast pass of the run over every mutant, resumed in
+two shards (docs/mutation/control.md), part 7:
+
+* the consistency projection makes the corrections its module docstring states, one after the
+  other, and as many as it reports: at most ``MAX_CORRECTIONS`` per call, the next call going on
+  where the last stopped. The reference is the docstring's relaxed half-space projection written
+  with numpy's eigenvectors and the pseudo-inertia built from its definition (a loop one short
+  made 15 corrections and reported 16).
+"""
+import numpy as np
+import pytest
+
+from random_robots import random_params
+from rtctl.control.consistency import MAX_CORRECTIONS, RELAXATION, TOLERANCE, project_link
+
+
+def pseudo_inertia(p):
+    """P(π) = [[½ tr(J) 1 − J, h], [hᵀ, m]], π = (m, h, Ixx, Ixy, Iyy, Ixz, Iyz, Izz)."""
+    J = np.array([[p[4], p[5], p[7]], [p[5], p[6], p[8]], [p[7], p[8], p[9]]])
+    return np.block([[0.5 * np.trace(J) * np.eye(3) - J, p[1:4, None]], [p[None, 1:4], p[0:1, None]]])
+
+
+BASIS = [pseudo_inertia(e) for e in np.eye(10)]  # P is linear in π: a_x[k] = xᵀ P(e_k) x
+
+
+def corrected(p, gamma, limit):
+    """The docstring's corrections, at most ``limit``: while λ_min(P(π̂)) < −TOLERANCE·|tr P|,
+    π̂ ← π̂ − ρ (a_x·π̂ / a_xᵀ Γ a_x) Γ a_x with x the unit eigenvector of λ_min. → (π̂, count)."""
+    p = p.copy()
+    for count in range(limit):
+        P = pseudo_inertia(p)
+        lam, V = np.linalg.eigh(P)
+        if lam[0] >= -TOLERANCE * abs(np.trace(P)):
+            return p, count
+        a = np.array([V[:, 0] @ B @ V[:, 0] for B in BASIS])
+        p -= RELAXATION * (a @ p) / (a @ (gamma * a)) * gamma * a
+    return p, limit
+
+
+def _cases(need_more_than, need_at_most, n):
+    rng = np.random.default_rng(7)
+    found = []
+    while len(found) < n:
+        p = random_params(rng) * rng.uniform(-1.5, 2.5, 10)
+        gamma = rng.uniform(0.05, 20, 10)
+        if need_more_than < corrected(p, gamma, 60)[1] <= need_at_most:
+            found.append((p, gamma))
+    return found
+
+
+def _project(p, gamma, cut):
+    return project_link(p, gamma, np.zeros((4, 4)), np.zeros((4, 4)), np.zeros(10), cut)
+
+
+@pytest.mark.parametrize("case", range(3))
+def test_a_call_makes_at_most_max_corrections_and_the_next_goes_on(case):
+    p0, gamma = _cases(MAX_CORRECTIONS + 2, 60, 3)[case]
+    p, cut = p0.copy(), np.zeros(4)
+    assert _project(p, gamma, cut) == MAX_CORRECTIONS
+    expected, _ = corrected(p0, gamma, MAX_CORRECTIONS)
+    np.testing.assert_allclose(p, expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
+    fewer, _ = corrected(p0, gamma, MAX_CORRECTIONS - 1)
+    assert np.abs(p - fewer).max() > 1e-6 * np.abs(expected).max()  # (one correction less is told apart)
+    more = _project(p, gamma, cut)  # the next tick, from the cut kept
+    expected, total = corrected(p0, gamma, 2 * MAX_CORRECTIONS)
+    assert more == total - MAX_CORRECTIONS
+    np.testing.assert_allclose(p, expected, rtol=1e-8, atol=1e-8 * np.abs(expected).max())
+
+
+def test_a_call_that_reaches_the_set_reports_the_corrections_it_made():
+    for p0, gamma in _cases(1, MAX_CORRECTIONS - 4, 5):
+        p = p0.copy()
+        count = _project(p, gamma, np.zeros(4))
+        expected, need = corrected(p0, gamma, MAX_CORRECTIONS)
+        assert count == need
+        np.testing.assert_allclose(p, expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
