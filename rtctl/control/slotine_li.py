@@ -106,13 +106,13 @@ def _gamma_option(t, n: int):
 class SlotineLi(Controller):
     """The adaptive controller; ``law`` is ``"cstar"`` (the paper's) or ``"classic"``.
 
-    ``lam`` (Λ) and ``kd`` (K_D): one number or one per joint, required (as in a configuration);
-    ``gamma`` (P): see
-    :func:`adaptation_gains`; ``params0``/``params_scale``: see :func:`initial_params`;
-    ``motor_model``: add the robot file's armature and friction as known feed-forward.
+    ``lam`` (Λ) and ``kd`` (K_D): one number or one per joint; ``gamma`` (P): see
+    :func:`adaptation_gains`; all three required (as in a configuration).
+    ``params0``/``params_scale``: see :func:`initial_params`; ``motor_model``: add the robot
+    file's armature and friction as known feed-forward.
     """
 
-    def __init__(self, model, law="cstar", *, lam, kd, gamma=1.0, params0="true", joints=None, divisor=1,
+    def __init__(self, model, law="cstar", *, lam, kd, gamma, params0="true", joints=None, divisor=1,
                  projection=False, dead_zone=0.0, params_scale=1.0, motor_model=False, coulomb_velocity=robot.COULOMB_VELOCITY,
                  name="slotine_li"):
         super().__init__(name, model, joints, divisor)

@@ -19,12 +19,12 @@ def test_every_controller_runs_every_tick_unless_told_otherwise(puma):
     assert defaults == {cls.__name__: cfg.divisor for cls in classes} and cfg.divisor == 1
 
 
-@pytest.mark.parametrize("missing", ["lam", "kd"])
+@pytest.mark.parametrize("missing", ["lam", "kd", "gamma"])
 def test_slotine_li_has_no_default_gain_a_configuration_lacks(puma, missing):
     from rtctl.control.slotine_li import SlotineLi
 
     with pytest.raises(TypeError, match=missing):
-        SlotineLi(puma, **{k: 5.0 for k in ("lam", "kd") if k != missing})
+        SlotineLi(puma, **{k: 5.0 for k in ("lam", "kd", "gamma") if k != missing})
 
 
 def test_the_drive_train_feed_forward_smooths_coulomb_friction_as_the_simulated_plant_does():

@@ -197,7 +197,7 @@ def test_the_constructors_defaults_are_documented():
 
 
 def test_options_left_out_take_the_documented_defaults(tmp_path):
-    cfg, c = _without(tmp_path, "d", "lam", "adapt", "r0", "R0", "Q0", "R_min", "noise_form")
+    cfg, c = _without(tmp_path, "na", "nb", "d", "lam", "adapt", "r0", "R0", "Q0", "R_min", "noise_form")
     f = c.filter
     assert c.order == ArxOrder(2, 2, 1) and f.lam == 0.98
     assert list(f.switches[:4]) == [1, 1, 0, 0]  # r̂ and R̂ adapted, q̂ and Q̂ not

@@ -50,7 +50,7 @@ def test_true_and_unscaled_initial_estimates_are_the_models_parameters(puma):
 
 
 def test_compute_leaves_an_inconsistent_estimate_alone_even_with_the_projection_on(puma):
-    c = SlotineLi(puma, lam=10.0, kd=50.0, projection=True)
+    c = SlotineLi(puma, lam=10.0, kd=50.0, gamma=1.0, projection=True)
     c.params_hat[0, 0] = -1.0  # a negative mass: outside the consistent set
     before = c.params_hat.copy()
     n = puma.nq
@@ -67,7 +67,7 @@ def test_a_configuration_without_a_dead_zone_or_a_scale_has_neither(tmp_path):
 
 
 def test_the_constructors_scaled_estimate_without_a_scale_is_the_models(puma):
-    np.testing.assert_array_equal(SlotineLi(puma, lam=10.0, kd=50.0, params0="scaled").params0, puma.params)
+    np.testing.assert_array_equal(SlotineLi(puma, lam=10.0, kd=50.0, gamma=1.0, params0="scaled").params0, puma.params)
 
 
 @pytest.mark.parametrize("options, key", [

@@ -7,7 +7,9 @@ two shards (docs/mutation/control.md), part 7:
   with numpy's eigenvectors and the pseudo-inertia built from its definition (a loop one short
   made 15 corrections and reported 16);
 * the Slotine–Li controller's tick projects π̂ + h dπ̂/dt the same way, every link on its own
-  gains (a scratch row shared with the eigen-solver's matrix corrupted the eigenvector).
+  gains (a scratch row shared with the eigen-solver's matrix corrupted the eigenvector);
+* after ``reset`` the controller is a new one, the projection's remembered cut directions
+  forgotten too (a remembered cut that still cuts is taken before the eigenvector).
 """
 import numpy as np
 import pytest
@@ -100,3 +102,38 @@ def test_the_controllers_tick_projects_the_euler_step_of_every_link(puma):
         outside += count > 0
         np.testing.assert_allclose(c.params_hat[i], expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
     assert outside >= n // 2
+
+
+def _ticks(c, state, ref, cmd, t0, n_ticks):
+    taus = []
+    for k in range(n_ticks):
+        state.position[:] += 1e-3 * state.velocity
+        c.update(t0 + 1e-3 * k, state, ref, cmd)
+        taus.append(cmd.tau_ff.copy())
+    return np.array(taus), c.params_hat.copy()
+
+
+def test_after_reset_the_controller_runs_as_a_new_one(puma):
+    n = puma.nq
+    rng = np.random.default_rng(5)
+    # −π of a real robot: P(−π) = −P(π) is negative definite, so every direction a reset left
+    # behind would cut, and be taken before the eigenvector a new controller starts from.
+    params0 = -puma.params
+    q0, qd0 = rng.uniform(-1, 1, n), rng.uniform(-1, 1, n)
+
+    def controller():
+        return SlotineLi(puma, lam=10.0, kd=50.0, gamma=2.0, params0=params0, projection=True)
+
+    def rig():
+        state, ref, cmd = JointState(n), Reference(n), JointCommand(n)
+        state.position[:], state.velocity[:] = q0, qd0
+        ref.q[:] = q0 + 0.1
+        return state, ref, cmd
+
+    used = controller()
+    _ticks(used, *rig(), 0.0, 20)
+    used.reset()
+    again = _ticks(used, *rig(), 5.0, 20)
+    new = _ticks(controller(), *rig(), 5.0, 20)
+    np.testing.assert_array_equal(again[0], new[0])
+    np.testing.assert_array_equal(again[1], new[1])

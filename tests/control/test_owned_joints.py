@@ -17,8 +17,8 @@ OWNED = [0, 2, 5]
 
 def _controllers(model):
     return [ComputedTorque("ct", model, 100.0, 20.0, joints=OWNED),
-            SlotineLi(model, law="cstar", lam=10.0, kd=50.0, joints=OWNED, projection=True),
-            SlotineLi(model, law="classic", lam=10.0, kd=50.0, joints=OWNED),
+            SlotineLi(model, law="cstar", lam=10.0, kd=50.0, gamma=1.0, joints=OWNED, projection=True),
+            SlotineLi(model, law="classic", lam=10.0, kd=50.0, gamma=1.0, joints=OWNED),
             PDGravity("pd", model, 100.0, 20.0, joints=OWNED)]
 
 
