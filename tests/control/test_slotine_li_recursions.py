@@ -108,9 +108,11 @@ def test_dead_zone_stops_adaptation_only(puma):
     np.testing.assert_array_equal(outside[1], plain[1])
 
 
-def test_motor_model_adds_the_known_drive_train(puma):
+@pytest.mark.parametrize("speed", [1.0, 0.01])  # rad/s: the Coulomb term saturated, and inside its band v_c
+def test_motor_model_adds_the_known_drive_train(puma, speed):
     rng = np.random.default_rng(2)
     q, qd, q_d, qd_d, qdd_d, lam, gamma = random_case(puma, rng)
+    qd = speed * qd
     bare = SlotineLi(puma, lam=lam, kd=50.0, gamma=gamma).compute(q, qd, q_d, qd_d, qdd_d)[0]
     with_motor = SlotineLi(puma, lam=lam, kd=50.0, gamma=gamma, motor_model=True).compute(q, qd, q_d, qd_d, qdd_d)[0]
     m, qddr = puma.motors, qdd_d - lam * (qd - qd_d)
