@@ -9,7 +9,11 @@ two shards (docs/mutation/control.md), part 7:
 * the Slotine–Li controller's tick projects π̂ + h dπ̂/dt the same way, every link on its own
   gains (a scratch row shared with the eigen-solver's matrix corrupted the eigenvector);
 * after ``reset`` the controller is a new one, the projection's remembered cut directions
-  forgotten too (a remembered cut that still cuts is taken before the eigenvector).
+  forgotten too (a remembered cut that still cuts is taken before the eigenvector), and its
+  first update integrates nothing, so projects nothing: π̂ stays π̂(0);
+* the GMV law refuses any one history of the wrong length, and takes any u_max > 0;
+* the margins' report marks every ρ ≥ 1 UNSTABLE; an option's error says what it needs (> 0
+  or ≥ 0).
 """
 import numpy as np
 import pytest
@@ -17,6 +21,10 @@ import pytest
 from random_robots import random_params
 from rtctl.control.base import Reference
 from rtctl.control.consistency import MAX_CORRECTIONS, RELAXATION, TOLERANCE, project_link
+from rtctl.control.gmv import gmv_control
+from rtctl.control.margins import PointMargins, format_margins
+from rtctl.errors import ConfigError
+from rtctl.estimation import ArxOrder
 from rtctl.control.slotine_li import SlotineLi
 from rtctl.hal.joints import JointCommand, JointState
 
@@ -137,3 +145,40 @@ def test_after_reset_the_controller_runs_as_a_new_one(puma):
     new = _ticks(controller(), *rig(), 5.0, 20)
     np.testing.assert_array_equal(again[0], new[0])
     np.testing.assert_array_equal(again[1], new[1])
+
+
+def test_the_first_update_leaves_the_initial_estimate_as_it_is(puma):
+    n = puma.nq
+    params0 = -puma.params  # outside the consistent set
+    c = SlotineLi(puma, lam=10.0, kd=50.0, gamma=2.0, params0=params0, projection=True)
+    state, ref, cmd = JointState(n), Reference(n), JointCommand(n)
+    state.velocity[:] = 0.5
+    c.update(3.0, state, ref, cmd)
+    np.testing.assert_array_equal(c.params_hat, params0)
+
+
+@pytest.mark.parametrize("y_hist, u_hist", [([0.0], [0.0, 0.0, 0.0]), ([0.0, 0.0], [0.0, 0.0])])
+def test_the_gmv_law_refuses_either_history_of_the_wrong_length(y_hist, u_hist):
+    with pytest.raises(ValueError, match="past outputs"):
+        gmv_control([2.0, -1.0, 1e-4, 1e-4, 0.0], 0.0, 0.0, y_hist, u_hist, ArxOrder(2, 2, 1), 1.0, 1e-9)
+
+
+def test_the_gmv_law_takes_a_limit_below_one():
+    u = gmv_control([2.0, -1.0, 1e-4, 1e-4, 0.0], 0.0, 0.0, [0.0, 0.0], [0.0, 0.0, 0.0], ArxOrder(2, 2, 1), 1.0,
+                    1e-9, u_max=0.5)
+    assert u == 0.5  # (a 1 rad step asks for far more: saturated)
+
+
+@pytest.mark.parametrize("rho, marked", [(0.999, False), (1.0, True), (1.5, True)])
+def test_the_margins_report_marks_a_spectral_radius_from_one_up_unstable(rho, marked):
+    text = format_margins("c", 1000.0, {0: PointMargins(rho=rho, p_max=2.0, kd_min=0.5, kd_max=3.0, rho_pd=0.9)})
+    assert text.splitlines()[-1].endswith("UNSTABLE") == marked
+
+
+@pytest.mark.parametrize("key, value, needs", [("rho", "0.0", "> 0"), ("R0", "-1.0", "≥ 0")])
+def test_an_arma_option_out_of_range_says_what_it_needs(tmp_path, key, value, needs):
+    from arma_loop import shipped
+
+    with pytest.raises(ConfigError) as err:
+        shipped(tmp_path, **{key: value})
+    assert f"numbers {needs}," in str(err.value)
