@@ -135,10 +135,10 @@ def project_link(p, gamma, A, V, a, x):
     projections (module docstring). ``x`` (4,): the link's last cut direction, kept between
     calls (zeros: none yet) — tried before any eigenvector and replaced when it no longer cuts;
     A, V (4, 4) and a (10,) scratch. Returns the number of corrections made."""
-    for count in range(MAX_CORRECTIONS + 1):
+    for count in range(MAX_CORRECTIONS):
         pseudo_inertia(p, A)
         bound = -TOLERANCE * abs(A[0, 0] + A[1, 1] + A[2, 2] + A[3, 3])
-        if positive_definite4(A, -bound, V) or count == MAX_CORRECTIONS:  # λ_min > bound: nothing to correct
+        if positive_definite4(A, -bound, V):  # λ_min > bound: nothing to correct
             return count
         quadratic_form_gradient(x, a)
         value = 0.0
