@@ -23,9 +23,9 @@ from rtctl.control.base import Reference
 from rtctl.control.consistency import MAX_CORRECTIONS, RELAXATION, TOLERANCE, project_link
 from rtctl.control.gmv import gmv_control
 from rtctl.control.margins import PointMargins, format_margins
+from rtctl.control.slotine_li import SlotineLi
 from rtctl.errors import ConfigError
 from rtctl.estimation import ArxOrder
-from rtctl.control.slotine_li import SlotineLi
 from rtctl.hal.joints import JointCommand, JointState
 
 
