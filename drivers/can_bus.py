@@ -14,7 +14,8 @@ bus-load budget of every bus of a run (docs/can_joints.md).
 A string value may name environment variables; after expansion, a value that is an integer
 literal becomes an integer (ports, bitrates). This is how a run configuration reaches a
 simulator whose port or pty is only known when it starts: ``hil-sim`` prints the variables
-to set (its ``env`` field). Devices whose bus options name the same interface, channel, host
+to set (its ``env`` field). ``timeout`` (slcan's serial read timeout) must be seconds ≥ 0: the
+driver times its reads by it. Devices whose bus options name the same interface, channel, host
 and port share one bus: the budget counts their joints together.
 """
 from __future__ import annotations
@@ -80,6 +81,10 @@ def read_bus_options(t: Table) -> BusOptions:
             raise bt.error("host", f"the socketcand server's host, got {host!r}")
         if "port" not in deferred and (not isinstance(port, int) or isinstance(port, bool) or not 0 < port < 65536):
             raise bt.error("port", f"a TCP port 1…65535, got {port!r}")
+    timeout = kwargs.get("timeout")  # (slcan's serial read timeout: the driver times its reads by it)
+    if "timeout" not in deferred and timeout is not None and (
+            not isinstance(timeout, (int, float)) or isinstance(timeout, bool) or not 0 <= timeout < float("inf")):
+        raise bt.error("timeout", f"a number of seconds ≥ 0, got {timeout!r}")
     bitrate = None if "bitrate" in deferred else kwargs.get("bitrate")
     if bitrate is not None and (not isinstance(bitrate, int) or isinstance(bitrate, bool) or bitrate <= 0):
         raise bt.error("bitrate", f"a positive integer (bit/s), got {bitrate!r}")

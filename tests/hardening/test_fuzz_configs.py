@@ -22,7 +22,7 @@ CONFIGS = sorted((ROOT / "configs").glob("*.toml"))
 def _passed_to_python_can(path) -> bool:
     """A [devices.bus] keyword rtctl does not read itself (python-can's own, e.g. slcan's
     sleep_after_open): its type is python-can's to check when the bus opens."""
-    return "bus" in path[:-1] and path[-1] not in ("interface", "channel", "host", "port", "bitrate")
+    return "bus" in path[:-1] and path[-1] not in ("interface", "channel", "host", "port", "bitrate", "timeout")
 
 
 @pytest.fixture(autouse=True)
@@ -53,3 +53,19 @@ def test_fuzz_config_mutations_exit_0_or_2_naming_the_key(config, tmp_path):
             assert code == 2 and any(k in err for k in acceptable_names(path)), (key_name(path), how, err)
 
     case()
+
+
+@pytest.mark.parametrize("value, code", [("fuzz", 2), (True, 2), (-0.001, 2), (float("inf"), 2), (0, 0), (0.002, 0)])
+def test_the_bus_timeout_the_driver_reads_is_a_number_of_seconds(tmp_path, value, code):
+    """slcan's serial read ``timeout`` also times the driver's reads: one that is no number of
+    seconds exits 2 naming it, before anything opens (a string was a traceback)."""
+    config = ROOT / "configs" / "three_joint_slcan.toml"
+    doc = tomllib.loads(config.read_text())
+    doc["devices"][0]["bus"]["timeout"] = value
+    shutil.copytree(config.parent, tmp_path / "configs")
+    target = tmp_path / "configs" / config.name
+    target.write_text(tomli_w.dumps(doc))
+    got, _, err = rtctl_in_process("check", target)
+    assert got == code, err
+    if code == 2:
+        assert "Traceback" not in err and "devices[0].bus.timeout" in err and ("seconds" in err or "finite" in err), err
