@@ -81,9 +81,9 @@ def read_bus_options(t: Table) -> BusOptions:
             raise bt.error("host", f"the socketcand server's host, got {host!r}")
         if "port" not in deferred and (not isinstance(port, int) or isinstance(port, bool) or not 0 < port < 65536):
             raise bt.error("port", f"a TCP port 1…65535, got {port!r}")
-    timeout = kwargs.get("timeout")  # (slcan's serial read timeout: the driver times its reads by it)
+    timeout = kwargs.get("timeout")  # (the TOML loader has refused a non-finite one)
     if "timeout" not in deferred and timeout is not None and (
-            not isinstance(timeout, (int, float)) or isinstance(timeout, bool) or not 0 <= timeout < float("inf")):
+            not isinstance(timeout, (int, float)) or isinstance(timeout, bool) or timeout < 0):
         raise bt.error("timeout", f"a number of seconds ≥ 0, got {timeout!r}")
     bitrate = None if "bitrate" in deferred else kwargs.get("bitrate")
     if bitrate is not None and (not isinstance(bitrate, int) or isinstance(bitrate, bool) or bitrate <= 0):
