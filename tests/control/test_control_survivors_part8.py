@@ -11,7 +11,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from rtctl.config import load_config
 from rtctl.control.slotine_li import LAWS
