@@ -4,17 +4,29 @@ again in two shards (docs/mutation/control.md), part 8:
 * a Slotine–Li configuration that leaves its options out gets the documented defaults: the
   C* law, no projection, no dead zone, no drive-train model;
 * ARMA/GMV: a drift mean q̂ (26) that overflowed while θ̂, P, r̂ and R̂ stayed finite is named as
-  the drift mean (a check of the wrong row named it the drift covariance Q̂).
+  the drift mean (a check of the wrong row named it the drift covariance Q̂);
+* ARMA/GMV: the first adapted drift covariance is (27) from filterpy's Kalman step, floored at
+  ``Q_min`` and not at Q̂(0) (handing the filter Q̂ as its floor let Q̂ never fall);
+* the margins' search, with 1 unstable, starts from the stable grid factor nearest to 1, as
+  documented (another stable interval further away is not the one reported).
 """
 import itertools
 import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
+from filterpy.kalman import KalmanFilter
+
+from arma_loop import shipped
 from rtctl.config import load_config
+from rtctl.control.arma_gmv import ArmaGmv
+from rtctl.control.base import Reference
+from rtctl.control.margins import stable_interval
 from rtctl.control.slotine_li import LAWS
 from rtctl.errors import ControllerError
+from rtctl.hal.joints import JointCommand, JointState
 from rtctl.runtime import build
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -51,3 +63,46 @@ def test_a_drift_mean_that_overflowed_alone_is_named(tmp_path):
         if others_finite and not np.isfinite(f.q_hat[:, 1]).all():
             named.append(message)
     assert named and all(m == "joint 'shoulder': non-finite drift mean q̂" for m in named), named
+
+
+def test_the_first_adapted_drift_covariance_is_27_floored_at_q_min():
+    """Q̂ adapted alone from Q̂(0) = 10⁻³ with Q_min = 10⁻¹⁵: with d_0 = 1, (27) gives
+    Q̂(1) = max(K_a² ε² + P(1|1)_aa − P(0|0)_aa, Q_min), K, ε and P(1|1) from filterpy's predict
+    and update. A small innovation makes the sample fall below Q̂(0) for some coefficient."""
+    cfg, _ = shipped()
+    model = cfg.model
+    theta0 = np.array([2.0, -1.0, 1e-4, 1e-4, 0.0])
+    P0 = np.array([1e-6, 1e-6, 1e-10, 1e-10, 1e-10])
+    Q0, Q_min = 1e-3, 1e-15
+    c = ArmaGmv(model, theta0=theta0, P0=P0, rho=1e-9, r0=0.0, R0=1e-4, Q0=Q0, Q_min=Q_min, adapt=("Q",))
+    n = model.nq
+    y0 = np.array([0.7, -0.4, 1.1])
+    state, ref, cmd = JointState(n), Reference(n), JointCommand(n)
+    state.position[:] = ref.q[:] = y0
+    c.reset(state)
+    c.update(0.0, state, ref, cmd)  # primes the histories: y(k−1) = y(k−2) = y0, u(k−1) = u0
+    u0 = cmd.tau_ff.copy()
+    state.position[:] = y0 + np.array([1e-4, -2e-4, 3e-4])
+    c.update(0.02, state, ref, cmd)
+    fell = False
+    for i in range(n):
+        kf = KalmanFilter(dim_x=5, dim_z=1)
+        kf.x = theta0.reshape(5, 1).copy()
+        kf.P = np.diag(P0)
+        kf.Q = Q0 * np.eye(5)
+        kf.R = np.array([[1e-4]])
+        kf.H = np.array([[y0[i], y0[i], u0[i], 0.0, 0.0]])  # h(k) of (15), d = 1
+        kf.predict()
+        kf.update(np.array([[state.position[i]]]))
+        K, eps = kf.K[:, 0], kf.y[0, 0]
+        expected = np.maximum(K * K * eps * eps + np.diag(kf.P) - P0, Q_min)
+        np.testing.assert_allclose(c.filter.Q_hat[:, i], expected, rtol=1e-6, atol=1e-18)
+        fell |= bool((expected < Q0).any())
+    assert fell  # (the case the floor decides)
+
+
+def test_with_one_unstable_the_search_starts_from_the_nearest_stable_grid_factor():
+    """Stable on [0.2, 0.4] and on [5, 20]: the grid's 10^−½ is nearer to 1 than its 10, so the
+    interval reported is the first, to the bisection's precision."""
+    lo, hi = stable_interval(lambda f: 0.2 <= f <= 0.4 or 5.0 <= f <= 20.0)
+    assert lo == pytest.approx(0.2, rel=1e-4) and hi == pytest.approx(0.4, rel=1e-4)
