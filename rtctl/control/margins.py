@@ -133,7 +133,8 @@ def loop_points(model, controller, trajectory, *, samples: int = 60, motor_model
 
 def trajectory_margins(model, controller, trajectory, rate_hz: float, delays=(0, 1, 2), *, samples: int = 24,
                        motor_model: bool = True) -> dict[int, PointMargins]:
-    """Per delay d (periods), the worst margins over the trajectory."""
+    """Per delay d (periods), the worst margins over the trajectory; with the robot file's drive
+    train by default, as :func:`loop_points`."""
     points = list(loop_points(model, controller, trajectory, samples=samples, motor_model=motor_model))
     T = 1.0 / rate_hz
     out = {}

@@ -8,7 +8,8 @@ again in two shards (docs/mutation/control.md), part 8:
 * ARMA/GMV: the first adapted drift covariance is (27) from filterpy's Kalman step, floored at
   ``Q_min`` and not at Q̂(0) (handing the filter Q̂ as its floor let Q̂ never fall);
 * the margins' search, with 1 unstable, starts from the stable grid factor nearest to 1, as
-  documented (another stable interval further away is not the one reported).
+  documented (another stable interval further away is not the one reported);
+* the trajectory's margins include the drive train by default, as the loop's points do.
 """
 import itertools
 import sys
@@ -23,11 +24,12 @@ from arma_loop import shipped
 from rtctl.config import load_config
 from rtctl.control.arma_gmv import ArmaGmv
 from rtctl.control.base import Reference
-from rtctl.control.margins import stable_interval
-from rtctl.control.slotine_li import LAWS
+from rtctl.control.margins import stable_interval, trajectory_margins
+from rtctl.control.slotine_li import LAWS, SlotineLi
 from rtctl.errors import ControllerError
 from rtctl.hal.joints import JointCommand, JointState
 from rtctl.runtime import build
+from rtctl.trajectory import JointLimits, through_waypoints
 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_config import configured  # noqa: E402 (the shipped C* job with lam, kd, gamma only)
@@ -106,3 +108,15 @@ def test_with_one_unstable_the_search_starts_from_the_nearest_stable_grid_factor
     interval reported is the first, to the bisection's precision."""
     lo, hi = stable_interval(lambda f: 0.2 <= f <= 0.4 or 5.0 <= f <= 20.0)
     assert lo == pytest.approx(0.2, rel=1e-4) and hi == pytest.approx(0.4, rel=1e-4)
+
+
+def test_trajectory_margins_include_the_drive_train_by_default(puma):
+    c = SlotineLi(puma, params0="zeros", gamma=2.0, lam=10.0, kd=50.0)
+    n = puma.nq
+    start = np.array([0.0, 0.7854, -3.1416, 0.0, 0.7854, 0.0])
+    limits = JointLimits(np.full(n, 10.0), np.full(n, 50.0), puma.q_min, puma.q_max)
+    traj = through_waypoints([start + 0.3], limits, start=start, durations=[1.0], t0=0.0)
+    margins = {m: trajectory_margins(puma, c, traj, 500.0, delays=(1,), samples=2, motor_model=m)
+               for m in (True, False)}
+    assert margins[True] != margins[False]  # (so the default is told apart)
+    assert trajectory_margins(puma, c, traj, 500.0, delays=(1,), samples=2) == margins[True]
