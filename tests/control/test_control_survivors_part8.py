@@ -9,7 +9,9 @@ again in two shards (docs/mutation/control.md), part 8:
   ``Q_min`` and not at Q̂(0) (handing the filter Q̂ as its floor let Q̂ never fall);
 * the margins' search, with 1 unstable, starts from the stable grid factor nearest to 1, as
   documented (another stable interval further away is not the one reported);
-* the trajectory's margins include the drive train by default, as the loop's points do.
+* the trajectory's margins include the drive train by default, as the loop's points do, and
+  are by default the worst of 24 points for 0, 1 and 2 periods of delay (docs/cstar_delay.md and
+  ``rtctl margins --help``).
 """
 import itertools
 import sys
@@ -24,7 +26,8 @@ from arma_loop import shipped
 from rtctl.config import load_config
 from rtctl.control.arma_gmv import ArmaGmv
 from rtctl.control.base import Reference
-from rtctl.control.margins import stable_interval, trajectory_margins
+from rtctl.control import margins as margins_module
+from rtctl.control.margins import PointMargins, stable_interval, trajectory_margins
 from rtctl.control.slotine_li import LAWS, SlotineLi
 from rtctl.errors import ControllerError
 from rtctl.hal.joints import JointCommand, JointState
@@ -110,13 +113,31 @@ def test_with_one_unstable_the_search_starts_from_the_nearest_stable_grid_factor
     assert lo == pytest.approx(0.2, rel=1e-4) and hi == pytest.approx(0.4, rel=1e-4)
 
 
-def test_trajectory_margins_include_the_drive_train_by_default(puma):
+def _move(puma):
     c = SlotineLi(puma, params0="zeros", gamma=2.0, lam=10.0, kd=50.0)
     n = puma.nq
     start = np.array([0.0, 0.7854, -3.1416, 0.0, 0.7854, 0.0])
     limits = JointLimits(np.full(n, 10.0), np.full(n, 50.0), puma.q_min, puma.q_max)
-    traj = through_waypoints([start + 0.3], limits, start=start, durations=[1.0], t0=0.0)
+    return c, through_waypoints([start + 0.3], limits, start=start, durations=[1.0], t0=0.0)
+
+
+def test_trajectory_margins_include_the_drive_train_by_default(puma):
+    c, traj = _move(puma)
     margins = {m: trajectory_margins(puma, c, traj, 500.0, delays=(1,), samples=2, motor_model=m)
                for m in (True, False)}
     assert margins[True] != margins[False]  # (so the default is told apart)
     assert trajectory_margins(puma, c, traj, 500.0, delays=(1,), samples=2) == margins[True]
+
+
+def test_trajectory_margins_take_24_points_and_delays_0_1_2_by_default(puma, monkeypatch):
+    c, traj = _move(puma)
+    calls = []
+
+    def counted(H, KD, M, T, d):
+        calls.append(d)
+        return PointMargins(rho=0.5, p_max=2.0, kd_min=0.5, kd_max=2.0, rho_pd=0.5)
+
+    monkeypatch.setattr(margins_module, "point_margins", counted)
+    out = trajectory_margins(puma, c, traj, 500.0, motor_model=True)
+    assert sorted(out) == [0, 1, 2]
+    assert sorted(calls) == [0] * 24 + [1] * 24 + [2] * 24
