@@ -19,14 +19,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from filterpy.kalman import KalmanFilter
 
 from arma_loop import shipped
 from rtctl.config import load_config
+from rtctl.control import margins as margins_module
 from rtctl.control.arma_gmv import ArmaGmv
 from rtctl.control.base import Reference
-from rtctl.control import margins as margins_module
 from rtctl.control.margins import PointMargins, stable_interval, trajectory_margins
 from rtctl.control.slotine_li import LAWS, SlotineLi
 from rtctl.errors import ControllerError
