@@ -14,8 +14,6 @@ again in two shards (docs/mutation/control.md), part 8:
   ``rtctl margins --help``).
 """
 import itertools
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -32,10 +30,8 @@ from rtctl.errors import ControllerError
 from rtctl.hal.joints import JointCommand, JointState
 from rtctl.runtime import build
 from rtctl.trajectory import JointLimits, through_waypoints
-
-sys.path.insert(0, str(Path(__file__).parent))
-from test_config import configured  # noqa: E402 (the shipped C* job with lam, kd, gamma only)
-from test_control_survivors import _primed  # noqa: E402 (the shipped ARMA/GMV job, one update made)
+from test_config import configured  # (the shipped C* job with lam, kd, gamma only)
+from test_control_survivors import _primed  # (the shipped ARMA/GMV job, one update made)
 
 
 def test_slotine_li_options_left_out_get_the_documented_defaults(tmp_path):
