@@ -6,6 +6,7 @@ Options (the ``[[devices]]`` table; the device serves the leg's joints hip, knee
     baudrate = 115200
     reply_deadline = 0.6      # fraction of the period write() waits for the board's sensor frame
     exchange_timeout = 0.5    # s to wait for the first frame at configure
+    write_timeout = 0.1       # s write() may wait for the port to take a command frame
     velocity_time = 0.02      # s, low-pass of the angle difference
 
 Per tick: ``write()`` sends the command frame (the actions) and waits, up to the deadline, for
@@ -21,7 +22,8 @@ protocol does not define) is an ERROR naming it. ``configure`` opens the port an
 sensor frame (states readable); ``activate`` needs a frame whose status shows the watchdog's
 lock released (the board locks the joints whenever our commands pause, as between configure
 and activate); ``deactivate`` sends lock commands until the board reports both joints locked
-(else it fails).
+(else it fails). A port that does not take a command frame within ``write_timeout``, or fails,
+is a HardwareError naming the device, the port and the cause (in a tick: the device's ERROR).
 """
 from __future__ import annotations
 
@@ -41,11 +43,12 @@ LOCKED = proto.pack_actions(proto.HOLD, proto.HOLD)
 
 class SerialLegBoard(LegBoard):
     def __init__(self, name, joint_names, port: str, period: float, *, baudrate: int = 115200,
-                 reply_deadline: float = 0.6, exchange_timeout: float = 0.5, velocity_time: float = 0.02):
+                 reply_deadline: float = 0.6, exchange_timeout: float = 0.5, write_timeout: float = 0.1,
+                 velocity_time: float = 0.02):
         super().__init__(name, joint_names, period, velocity_time)
         self.url, self.baudrate = port, baudrate
         self.reply_timeout = reply_deadline * period
-        self.exchange_timeout = exchange_timeout
+        self.exchange_timeout, self.write_timeout = exchange_timeout, write_timeout
         self.port = None
         self.decoder = proto.Decoder(proto.SENSOR)
         self._frame = bytearray(proto.COMMAND_LENGTH)
@@ -63,6 +66,7 @@ class SerialLegBoard(LegBoard):
         kw = dict(baudrate=t.int("baudrate", 115200, min=1),
                   reply_deadline=t.float("reply_deadline", 0.6, positive=True, max=0.95),
                   exchange_timeout=t.float("exchange_timeout", 0.5, positive=True),
+                  write_timeout=t.float("write_timeout", 0.1, positive=True),
                   velocity_time=t.float("velocity_time", 0.02, min=0.0))
         t.done()
         names = [context.model.joint_names[j] for j in device.joints]
@@ -71,14 +75,18 @@ class SerialLegBoard(LegBoard):
     # -- lifecycle -----------------------------------------------------------------------
     def _on_configure(self) -> None:
         try:
-            self.port = serial.serial_for_url(self.url, baudrate=self.baudrate, timeout=0, write_timeout=0.1)
+            self.port = serial.serial_for_url(self.url, baudrate=self.baudrate, timeout=0,
+                                            write_timeout=self.write_timeout)
         except (serial.SerialException, OSError, ValueError) as e:
             raise HardwareError(f"{self.name}: cannot open {self.url}: {e}") from e
         self.safe_state()
-        if not self._exchange(self.exchange_timeout):
+        try:
+            if not self._exchange(self.exchange_timeout):
+                raise HardwareError(f"{self.name}: no sensor frame from the board on {self.url} "
+                                    f"within {self.exchange_timeout} s ({self.decoder.counters})")
+        except HardwareError:
             self._close_port()
-            raise HardwareError(f"{self.name}: no sensor frame from the board on {self.url} "
-                                f"within {self.exchange_timeout} s ({self.decoder.counters})")
+            raise
 
     def _on_activate(self) -> None:
         """Send lock commands until the board reports its watchdog's lock released: from then on
@@ -148,7 +156,13 @@ class SerialLegBoard(LegBoard):
             raise HardwareError(f"{self.name}: port closed")
         proto.encode_command(self._seq, int(self.actions[0]), int(self.actions[1]), self._frame)
         self._seq = (self._seq + 1) & 0xFF
-        self.port.write(self._frame)
+        try:
+            self.port.write(self._frame)
+        except serial.SerialTimeoutException as e:  # (pyserial says so also of a write it finished late)
+            raise HardwareError(f"{self.name}: the port {self.url} did not take a command frame within "
+                                f"{self.write_timeout} s") from e
+        except (serial.SerialException, OSError) as e:
+            raise HardwareError(f"{self.name}: writing to {self.url} failed: {e}") from e
         self.counters["commands"] += 1
         return self._collect(timeout)
 

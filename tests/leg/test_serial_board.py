@@ -1,6 +1,7 @@
 """The serial leg board driver against the board firmware on a pty (in-process), and on
 pyserial's loop:// (where it hears only its own commands)."""
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -37,20 +38,29 @@ class ProxiedBoard(LegBoardServer):
         self.last_frame = bytes(self.pty.out[before:]) or self.last_frame
 
 
-def _serve(period, realtime_factor=0.0):
+def _serve(period, realtime_factor=0.0, watchdog_s=0.05):
     plant = LegPlant(LegParams(angle_noise=0.0, load_noise=0.0))
     events = []
-    server = ProxiedBoard(plant, period, realtime_factor=realtime_factor, emit=events.append, watchdog_s=0.05)
+    server = ProxiedBoard(plant, period, realtime_factor=realtime_factor, emit=events.append, watchdog_s=watchdog_s)
     thread = threading.Thread(target=server.serve_forever, daemon=True)
     thread.start()
     return server, thread, plant, events
 
 
+# The lock-step tests step the plant per command, not by the clock; what does run on the clock —
+# the board's watchdog and the driver's waits — gets 30 s, so a stall of this shared machine (one
+# of a whole second was seen: the board woke 996 ms after a command) is no watchdog lock or
+# timed-out write. The free-running test below keeps the board's 50 ms watchdog it is about.
+STALL_PROOF = 30.0
+
+
 @pytest.fixture
 def board_on_pty():
-    server, thread, plant, events = _serve(PERIOD)
-    board = SerialLegBoard("board", ["hip", "knee", "ankle"], server.path, PERIOD, reply_deadline=5.0)
+    server, thread, plant, events = _serve(PERIOD, watchdog_s=STALL_PROOF)
+    board = SerialLegBoard("board", ["hip", "knee", "ankle"], server.path, PERIOD, reply_deadline=5.0,
+                           exchange_timeout=STALL_PROOF, write_timeout=STALL_PROOF)
     yield board, server, plant, events
+    board.exchange_timeout = 0.05  # a board the test silenced never confirms the lock: not 3 × 30 s
     board.close()
     server.shutdown()
     thread.join(5)
@@ -112,6 +122,28 @@ def test_loop_url_hears_only_its_own_commands():
     with pytest.raises(HardwareError, match="no sensor frame"):
         board.configure()
     assert board.decoder.counters["frames"] == 0  # its own 7-byte command echoed is no sensor frame
+
+
+def test_a_port_that_does_not_take_the_command_frame_in_time_is_a_hardware_error_naming_it():
+    """pyserial's loop:// refuses a write that its baud rate cannot send within the write
+    timeout: 7 bytes at 300 baud take 0.23 s, more than 0.1 s. The error names the device, the
+    port and the bound, and the port is closed again."""
+    board = SerialLegBoard("board", ["hip", "knee", "ankle"], "loop://", PERIOD, baudrate=300, write_timeout=0.1)
+    with pytest.raises(HardwareError, match=r"^board: the port loop:// did not take a command frame within 0.1 s"):
+        board.configure()
+    assert board.port is None
+
+
+def test_a_line_that_goes_away_is_the_devices_error_naming_the_port(board_on_pty):
+    board, server, plant, events = board_on_pty
+    board.configure()
+    board.activate()
+    server.shutdown()  # the board's end of the pty closes: the host's write fails (EIO)
+    waited = time.monotonic() + 10.0
+    while server.pty.fd != -1 and time.monotonic() < waited:
+        time.sleep(0.01)
+    assert board.write(0.0) is Status.ERROR
+    assert board.last_error.startswith(f"write: HardwareError: board: writing to {server.path} failed"), board.last_error
 
 
 def test_a_board_that_repeats_its_last_frame_goes_stale_and_the_safety_stage_faults(board_on_pty):
