@@ -136,7 +136,7 @@ def leg_board_watchdog(cleanup):
 
 def leg_board_port_lost(cleanup):
     board, server = _leg_board(cleanup, realtime_factor=0.0)
-    return board, _board_ticks(board, 5, server.shutdown), ("SerialException", "Input/output error")  # pty closed
+    return board, _board_ticks(board, 5, server.shutdown), ("writing to /dev/pts/", "Input/output error")  # pty closed
 
 
 CASES = {  # device type, how it fails → the case
