@@ -17,6 +17,7 @@ import pytest
 
 from rtctl.control_socket import request
 from runtime_helpers import ROOT
+from stalls import VmStall
 from test_io_devices import registry  # noqa: F401  (fixture)
 
 pytestmark = pytest.mark.realtime  # (tests/conftest.py)
@@ -54,10 +55,6 @@ def client(path, seconds: float, offset: int, replies: list) -> None:
         t0 = time.monotonic()
         reply = request(path, cmd, timeout=30.0, **fields)
         replies.append((cmd, reply, time.monotonic() - t0))
-
-
-class VmStall(Exception):
-    """The loop was late while serving took less than a period: the shared VM stopped it (retried)."""
 
 
 @pytest.mark.flaky(reruns=4, only_rerun=["VmStall"])

@@ -15,6 +15,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests" / "runtime"))
 from runtime_helpers import Daemon, rtctl  # noqa: E402,F401  (re-exported)
+from stalls import VmStall  # noqa: E402  (what unless_stalled raises; the HIL tests import it here)
 
 from rtctl.control_socket import request  # noqa: E402
 from rtctl.telemetry import read  # noqa: E402
@@ -106,11 +107,6 @@ def run(config, tmp_path: Path, env: dict, *extra, duration: float = 3.0, timeou
                    "--socket", tmp_path / "rtctl.sock", *extra, env=env, timeout=timeout)
     assert summary.exists(), result.stderr[-3000:]
     return result.returncode, json.loads(summary.read_text()), read(telemetry), result.stderr
-
-
-class VmStall(Exception):
-    """A bound failed in a run whose own record shows that the machine stalled it: the HIL
-    tests retry these (and only these, see conftest.py)."""
 
 
 def stall_in(summary: dict) -> str | None:

@@ -13,6 +13,7 @@ from rtctl.errors import HardwareError
 from rtctl.hal import JointCommand, Status
 from rtctl.safety import FaultKind, SafetyStage, Verdict
 from rtctl.safety.faults import device_reason
+from stalls import VmStall
 
 PERIOD = 0.002
 
@@ -175,11 +176,7 @@ def test_a_board_that_repeats_its_last_frame_goes_stale_and_the_safety_stage_fau
     assert c["repeated_frames"] >= 35 and c["lost_frames"] == 0 and c["frames"] <= 22, c
 
 
-class MachineStall(Exception):
-    """The run's own record shows that this shared machine stopped the test process: retried."""
-
-
-@pytest.mark.flaky(reruns=2, only_rerun=["MachineStall"])
+@pytest.mark.flaky(reruns=2, only_rerun=["VmStall"])
 def test_the_boards_watchdog_status_while_running_is_an_error_naming_it(free_running_board):
     """Defect 4 of issue 25: for 4.6 s the board reported that its watchdog had locked both
     joints (no command reached it), and the run exited 0. The status is checked every tick while
@@ -192,7 +189,7 @@ def test_the_boards_watchdog_status_while_running_is_an_error_naming_it(free_run
         t += board.period
         ok = board.read(t) == Status.OK and board.write(t) == Status.OK
         if not ok and server.counters["watchdog_trips"]:  # commanded every 10 ms, yet 50 ms without one
-            raise MachineStall(f"the board's watchdog locked while we commanded it: {board.last_error}")
+            raise VmStall(f"the board's watchdog locked while we commanded it: {board.last_error}")
         assert ok, board.last_error
     server.deaf = True  # our commands stop reaching the board; its frames go on
     statuses = []
